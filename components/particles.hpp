@@ -1,0 +1,54 @@
+// Per-particle state, structure of arrays. Index i is particle i everywhere; particle i is also
+// tetrahedron i of the body's embedded mesh (particles sit at tet barycenters, paper §5.2), and
+// particles are stored in Morton order so a family is close in memory.
+#pragma once
+#include <vector>
+
+#include "components/math.hpp"
+
+namespace perifx {
+
+// Bit flags in Particles::flags.
+enum ParticleFlag : std::uint8_t {
+  kAnchored = 1u << 0,      // position held at its reference value (a boundary condition)
+  kPrescribed = 1u << 1,    // velocity/displacement prescribed by a boundary condition this step
+};
+
+struct Particles {
+  // All arrays have length count().
+  std::vector<Vec3> reference_position;  // x, m
+  std::vector<Vec3> position;            // y, m
+  std::vector<Vec3> velocity;            // m/s
+  std::vector<Vec3> acceleration;        // m/s², from the last force evaluation (velocity Verlet)
+  std::vector<double> volume;            // V, m³ (tet volume)
+  std::vector<double> mass;              // m = ρV, kg
+  std::vector<std::uint16_t> material_id;
+  std::vector<std::uint16_t> body_id;
+  std::vector<std::uint8_t> flags;       // ParticleFlag bits
+
+  std::size_t count() const { return position.size(); }
+};
+
+// Per-particle model constants, fixed after setup (they depend on material, horizon and, under the
+// discrete normalization, on the particle's own family). With them every bond force is
+//   A_ij = ω_ij (Λ_ij·P_i + b4_i·(e_ij − e^p_ij)),   P_i = (a4_i − b4_i·β_i)·θ_i,
+// which is Eq 4 + Eq 8/12 regrouped: a4 = 4a, b4 = 4b, β = δ/4 in the paper's normalization.
+struct ParticleModel {
+  std::vector<double> horizon;          // δ, m
+  std::vector<double> dilatation_scale; // θ_i = dilatation_scale_i · Σ ω e Λ V  (paper: 9/(4πδ⁴))
+  std::vector<double> a4;               // 4a, Pa/m⁴ (paper: 4·9κ/(8πδ⁴))
+  std::vector<double> b4;               // 4b, Pa/m⁵ (paper: 4·15μ/(2πδ⁵))
+  std::vector<double> beta;             // β in e^d = e − β Λ θ, m (paper: δ/4)
+  std::vector<double> damping;          // mass-proportional damping rate, 1/s
+};
+
+// Per-particle results of the step's systems.
+struct ParticleState {
+  std::vector<double> dilatation;           // θ_i (Eq 6), written by the dilatation system
+  std::vector<double> dilatation_coupling;  // P_i = (a4_i − b4_i β_i) θ_i, Pa/m⁴
+  std::vector<Vec3> internal_force;         // N, peridynamic force on the particle (Eq 2 × V_i)
+  std::vector<Vec3> external_force;         // N, gravity and loads
+  std::vector<double> damage;               // φ_i = 1 − n_i/N_i (Eq 19), from the end of the last step
+};
+
+}  // namespace perifx

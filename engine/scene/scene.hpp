@@ -1,0 +1,157 @@
+// The typed scene: what a validated scene JSON turns into. Everything downstream of the scene loader
+// reads these structs, never raw JSON. All quantities SI (m, kg, s, Pa).
+// The JSON format, with every key's type, default, range and meaning, is generated from the spec in
+// schema.cpp (`perifx spec` prints it; docs copy: assets/scenes/FORMAT.md).
+#pragma once
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "components/math.hpp"
+
+namespace perifx::scene {
+
+// A scene that cannot be used. what() is the full one-line message:
+//   "<file>: <json pointer>: <problem> (got <value>; expected <what>)"
+class SceneError : public std::runtime_error {
+ public:
+  SceneError(std::string file, std::string pointer, std::string message);
+  const std::string& file() const { return file_; }
+  const std::string& pointer() const { return pointer_; }
+  const std::string& message() const { return message_; }
+
+ private:
+  std::string file_, pointer_, message_;
+};
+
+enum class Normalization { paper, discrete };  // notes.md: paper constants, or per-particle discrete sums
+enum class FamilyRule { mesh, distance };      // notes.md: distance + face-connectivity, or distance only
+
+struct Material {
+  std::string name;
+  double density = 1000.0;             // ρ, kg/m³
+  double bulk_modulus = 0.0;           // κ, Pa (given directly or from E, ν)
+  double shear_modulus = 0.0;          // μ, Pa
+  double yield_energy = kInfinity;     // Ψ0 (Eq 13); ∞ = purely elastic
+  double plastic_cap_ratio = 0.0;      // γ/|ξ| (Eq 16)
+  double critical_stretch = kInfinity; // s_c (Eq 19); ∞ = unbreakable
+  double damage_alpha = 0.0;           // α (Eq 19, notes.md reading)
+  Mat3 anisotropy = Mat3::Identity();  // G (Eq 17)
+  double damping = 0.0;                // mass-proportional velocity damping, 1/s (0 = none)
+};
+
+struct Geometry {
+  enum class Kind { box, sphere, cylinder, tetgen };
+  Kind kind = Kind::box;
+  Vec3 size = Vec3(1, 1, 1);           // box: full edge lengths, m
+  double radius = 0.5;                 // sphere, cylinder, m
+  double height = 1.0;                 // cylinder, m (along `axis`)
+  int axis = 2;                        // cylinder axis: 0 x, 1 y, 2 z
+  std::filesystem::path path;          // tetgen: the .node file (.ele beside it), absolute
+  double edge_length = 0.0;            // structured mesher: target cell size, m (0 = use resolution)
+  int resolution = 0;                  // structured mesher: cells along the longest extent
+};
+
+struct Transform {
+  Vec3 translation = Vec3::Zero();     // m
+  Mat3 rotation = Mat3::Identity();
+  double scale = 1.0;
+};
+
+struct Body {
+  std::string name;
+  Geometry geometry;
+  int material = 0;                    // index into Scene::materials
+  Transform transform;
+  Vec3 velocity = Vec3::Zero();        // initial, m/s
+  Vec3 angular_velocity = Vec3::Zero();// initial, rad/s about the body's reference centroid
+  double horizon_factor = 1.45;        // δ = factor·λ (λ = mean edge length of the tet mesh)
+  double horizon_length = 0.0;         // δ in metres; when > 0 it overrides horizon_factor
+};
+
+// A region of particles, tested on reference positions (after the body transform).
+struct Region {
+  enum class Kind { all, box, sphere, halfspace };
+  Kind kind = Kind::all;
+  Vec3 min = Vec3::Zero(), max = Vec3::Zero();   // box
+  Vec3 center = Vec3::Zero();                    // sphere
+  double radius = 0.0;                           // sphere
+  Vec3 point = Vec3::Zero(), normal = Vec3::UnitY();  // halfspace: particles with (x − point)·normal ≥ 0
+  int body = -1;                                 // restrict to one body (index), −1 = any body
+};
+
+// Time window with a linear ramp: strength 0 before `start`, rising linearly to 1 over `ramp`
+// seconds, 1 until `end`, then the condition is released.
+struct TimeWindow {
+  double start = 0.0;
+  double ramp = 0.0;
+  double end = kInfinity;
+};
+
+struct BoundaryCondition {
+  enum class Kind { anchor, velocity, displacement };
+  Kind kind = Kind::anchor;
+  Region region;
+  TimeWindow window;
+  // velocity: v = ramp(t)·(velocity + angular_velocity × (x − center))
+  // displacement: u = ramp(t)·(displacement + (R(angle·axis) − I)(x − center))  (R: rotation)
+  Vec3 velocity = Vec3::Zero();
+  Vec3 angular_velocity = Vec3::Zero();
+  Vec3 displacement = Vec3::Zero();
+  Vec3 rotation_axis = Vec3::UnitX();  // displacement rotation axis (unit)
+  double rotation_angle = 0.0;         // radians
+  Vec3 center = Vec3::Zero();
+};
+
+struct Collider {
+  enum class Kind { plane, sphere, box };
+  Kind kind = Kind::plane;
+  Vec3 point = Vec3::Zero();           // plane: a point on it
+  Vec3 normal = Vec3::UnitY();         // plane: outward unit normal (solid side is below)
+  Vec3 center = Vec3::Zero();          // sphere, box: initial center
+  double radius = 0.5;                 // sphere
+  Vec3 half_extents = Vec3(0.5, 0.5, 0.5);  // box
+  Mat3 orientation = Mat3::Identity(); // box: initial orientation
+  Vec3 velocity = Vec3::Zero();        // prescribed linear velocity, m/s
+  Vec3 angular_velocity = Vec3::Zero();// prescribed angular velocity about its center, rad/s
+  double friction = 0.0;               // Coulomb coefficient
+  double restitution = 0.0;            // normal restitution in [0, 1]
+};
+
+struct Time {
+  double dt = 1e-4;                    // s
+  double duration = 1.0;               // s
+  double frame_rate = 24.0;            // frames per second of output
+};
+
+struct Output {
+  std::filesystem::path directory = "out";   // absolute after loading (relative paths: to the cwd)
+  bool vtu = true;                     // particles as VTU + a .pvd series (ParaView)
+  bool ply = true;                     // particles as binary PLY points (Houdini, Blender)
+  std::vector<std::string> fields;     // particle fields to write; empty = all registered fields
+};
+
+struct Scene {
+  std::string name;
+  std::filesystem::path source;        // the file it came from ("<memory>" when built in code)
+  Time time;
+  int threads = 0;                     // 0 = all hardware threads
+  Vec3 gravity = Vec3(0, -9.81, 0);    // m/s² (Y is up)
+  Normalization normalization = Normalization::paper;
+  FamilyRule family = FamilyRule::mesh;
+  std::vector<Material> materials;
+  std::vector<Body> bodies;
+  std::vector<BoundaryCondition> boundary_conditions;
+  std::vector<Collider> colliders;
+  Output output;
+};
+
+// Reads, validates and converts a scene file. Throws SceneError (parse errors name line and column).
+Scene load_scene_file(const std::filesystem::path& file);
+// Same from text; `file` names the source in messages and resolves relative mesh paths.
+Scene load_scene_text(const std::string& text, const std::filesystem::path& file);
+// The scene format reference (markdown), generated from the spec.
+std::string scene_format_markdown();
+
+}  // namespace perifx::scene
