@@ -3,6 +3,7 @@
 // momentum tests need extensions exact to ~1e-13 of a bond length, which float (1e-7) cannot give.
 #pragma once
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstdint>
 #include <limits>
 

@@ -1,0 +1,116 @@
+#include "scheduler.hpp"
+
+#include <algorithm>
+#include <array>
+#include <sstream>
+#include <stdexcept>
+
+namespace perifx {
+
+const char* component_name(Component c) {
+  switch (c) {
+    case Component::time: return "time";
+    case Component::position: return "position";
+    case Component::velocity: return "velocity";
+    case Component::acceleration: return "acceleration";
+    case Component::flags: return "flags";
+    case Component::dilatation: return "dilatation";
+    case Component::plastic_extension: return "plastic_extension";
+    case Component::bond_alive: return "bond_alive";
+    case Component::damage: return "damage";
+    case Component::internal_force: return "internal_force";
+    case Component::external_force: return "external_force";
+    case Component::count_: break;
+  }
+  return "?";
+}
+
+Scheduler::Scheduler(int threads)
+    : arena_(threads > 0 ? threads : tbb::task_arena::automatic) {}
+
+Scheduler::~Scheduler() {
+  // Nodes must be destroyed before the graph they belong to.
+  nodes_.clear();
+  start_.reset();
+  graph_.reset();
+}
+
+void Scheduler::add(SystemDecl system) {
+  if (graph_) throw std::logic_error("Scheduler::add after build");
+  systems_.push_back(std::move(system));
+}
+
+void Scheduler::build() {
+  constexpr auto kCount = static_cast<std::size_t>(Component::count_);
+  std::array<int, kCount> last_writer;
+  last_writer.fill(-1);
+  std::array<std::vector<int>, kCount> readers_since_write;
+
+  dependencies_.assign(systems_.size(), {});
+  for (std::size_t s = 0; s < systems_.size(); ++s) {
+    auto& deps = dependencies_[s];
+    const auto& sys = systems_[s];
+    for (Component c : sys.reads) {
+      const int w = last_writer[static_cast<std::size_t>(c)];
+      if (w >= 0) deps.push_back(w);
+    }
+    for (Component c : sys.writes) {
+      const auto ci = static_cast<std::size_t>(c);
+      if (last_writer[ci] >= 0) deps.push_back(last_writer[ci]);
+      for (int r : readers_since_write[ci])
+        if (r != static_cast<int>(s)) deps.push_back(r);
+    }
+    std::sort(deps.begin(), deps.end());
+    deps.erase(std::unique(deps.begin(), deps.end()), deps.end());
+    for (Component c : sys.reads) readers_since_write[static_cast<std::size_t>(c)].push_back(static_cast<int>(s));
+    for (Component c : sys.writes) {
+      last_writer[static_cast<std::size_t>(c)] = static_cast<int>(s);
+      readers_since_write[static_cast<std::size_t>(c)].clear();
+    }
+  }
+
+  arena_.execute([&] {
+    // The graph attaches to the arena it is created in, so its tasks use this world's threads only.
+    graph_ = std::make_unique<tbb::flow::graph>();
+    start_ = std::make_unique<tbb::flow::broadcast_node<tbb::flow::continue_msg>>(*graph_);
+    nodes_.clear();
+    for (auto& sys : systems_) {
+      auto* run = &sys.run;
+      nodes_.push_back(std::make_unique<tbb::flow::continue_node<tbb::flow::continue_msg>>(
+          *graph_, [run](const tbb::flow::continue_msg&) { (*run)(); }));
+    }
+    for (std::size_t s = 0; s < systems_.size(); ++s) {
+      if (dependencies_[s].empty()) tbb::flow::make_edge(*start_, *nodes_[s]);
+      for (int d : dependencies_[s]) tbb::flow::make_edge(*nodes_[static_cast<std::size_t>(d)], *nodes_[s]);
+    }
+  });
+}
+
+void Scheduler::run_step() {
+  arena_.execute([&] {
+    start_->try_put(tbb::flow::continue_msg());
+    graph_->wait_for_all();
+  });
+}
+
+std::string Scheduler::describe() const {
+  std::ostringstream out;
+  auto list = [&](const std::vector<Component>& cs) {
+    std::string s;
+    for (Component c : cs) s += std::string(s.empty() ? "" : ",") + component_name(c);
+    return s.empty() ? std::string("-") : s;
+  };
+  for (std::size_t s = 0; s < systems_.size(); ++s) {
+    out << s << " " << systems_[s].name << "  reads " << list(systems_[s].reads) << "  writes "
+        << list(systems_[s].writes) << "  after";
+    if (s < dependencies_.size() && !dependencies_[s].empty()) {
+      for (int d : dependencies_[s]) out << " " << systems_[static_cast<std::size_t>(d)].name;
+    } else {
+      out << " (start)";
+    }
+    out << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace perifx

@@ -1,0 +1,156 @@
+// Family build (setup, §5.2 and notes.md "Mesh embedding and family").
+// Reads:  particles.reference_position, particles.body_id, particles.material_id, model.horizon,
+//         the embedded mesh's face adjacency (mesh rule), scene materials (G, Eq 17).
+// Writes: bonds (offsets, neighbor, reverse, reference_length, weight, alive, plastic_extension,
+//         initial_count).
+//
+// Mesh rule (default): j is in i's family when |x_j − x_i| ≤ δ and j is reachable from i through
+// face-adjacent tets whose barycenters all lie within δ of x_i, so bonds never jump a thin gap.
+// Reachability is not symmetric in general (the balls around i and j differ); a bond is one physical
+// link, so the union is kept: i–j is bonded when either finds the other.
+// Distance rule: every particle of the same body within δ.
+#include <oneapi/tbb/enumerable_thread_specific.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "parallel.hpp"
+#include "systems.hpp"
+
+namespace perifx::systems {
+namespace {
+
+// Bonds exactly at distance δ (common on structured meshes) are kept despite round-off.
+constexpr double kHorizonSlack = 1e-9;
+
+using Lists = std::vector<std::vector<std::uint32_t>>;
+
+Lists families_by_mesh(const WorldState& w, const std::vector<std::array<std::int32_t, 4>>& adjacency) {
+  const auto& x = w.particles.reference_position;
+  const std::size_t n = x.size();
+  Lists lists(n);
+  struct Scratch {
+    std::vector<std::uint32_t> stamp;  // stamp[t] == i+1: tet t already seen from particle i
+    std::vector<std::uint32_t> queue;
+  };
+  tbb::enumerable_thread_specific<Scratch> scratch([n] { return Scratch{std::vector<std::uint32_t>(n, 0), {}}; });
+  parallel_for_each(n, [&](std::size_t i) {
+    Scratch& s = scratch.local();
+    const auto mark = static_cast<std::uint32_t>(i + 1);
+    const double reach = w.model.horizon[i] * (1.0 + kHorizonSlack);
+    const double reach2 = reach * reach;
+    auto& out = lists[i];
+    s.queue.clear();
+    s.queue.push_back(static_cast<std::uint32_t>(i));
+    s.stamp[i] = mark;
+    for (std::size_t head = 0; head < s.queue.size(); ++head) {
+      for (std::int32_t nb : adjacency[s.queue[head]]) {
+        if (nb < 0) continue;
+        const auto t = static_cast<std::uint32_t>(nb);
+        if (s.stamp[t] == mark) continue;
+        s.stamp[t] = mark;
+        if ((x[t] - x[i]).squaredNorm() <= reach2) {
+          s.queue.push_back(t);
+          out.push_back(t);
+        }
+      }
+    }
+    std::sort(out.begin(), out.end());
+  }, 64);
+  return lists;
+}
+
+Lists families_by_distance(const WorldState& w) {
+  const auto& x = w.particles.reference_position;
+  const std::size_t n = x.size();
+  Lists lists(n);
+  if (n == 0) return lists;
+  double cell = 0.0;
+  Vec3 lo = x[0];
+  for (std::size_t i = 0; i < n; ++i) {
+    cell = std::max(cell, w.model.horizon[i] * (1.0 + kHorizonSlack));
+    lo = lo.cwiseMin(x[i]);
+  }
+  // Sorted (cell key, particle) pairs; a cell's particles are found by binary search.
+  auto coord = [&](const Vec3& p, int a) { return static_cast<std::int64_t>(std::floor((p[a] - lo[a]) / cell)); };
+  auto key = [](std::int64_t cx, std::int64_t cy, std::int64_t cz) {
+    return (static_cast<std::uint64_t>(cx) << 42) | (static_cast<std::uint64_t>(cy) << 21) | static_cast<std::uint64_t>(cz);
+  };
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> cells(n);
+  for (std::size_t i = 0; i < n; ++i)
+    cells[i] = {key(coord(x[i], 0), coord(x[i], 1), coord(x[i], 2)), static_cast<std::uint32_t>(i)};
+  std::sort(cells.begin(), cells.end());
+  parallel_for_each(n, [&](std::size_t i) {
+    const double reach = w.model.horizon[i] * (1.0 + kHorizonSlack);
+    const std::int64_t c[3] = {coord(x[i], 0), coord(x[i], 1), coord(x[i], 2)};
+    auto& out = lists[i];
+    for (std::int64_t dx = -1; dx <= 1; ++dx)
+      for (std::int64_t dy = -1; dy <= 1; ++dy)
+        for (std::int64_t dz = -1; dz <= 1; ++dz) {
+          if (c[0] + dx < 0 || c[1] + dy < 0 || c[2] + dz < 0) continue;
+          const std::uint64_t k = key(c[0] + dx, c[1] + dy, c[2] + dz);
+          auto it = std::lower_bound(cells.begin(), cells.end(), std::make_pair(k, std::uint32_t(0)));
+          for (; it != cells.end() && it->first == k; ++it) {
+            const std::uint32_t j = it->second;
+            if (j == i || w.particles.body_id[j] != w.particles.body_id[i]) continue;
+            if ((x[j] - x[i]).squaredNorm() <= reach * reach) out.push_back(j);
+          }
+        }
+    std::sort(out.begin(), out.end());
+  }, 64);
+  return lists;
+}
+
+// Adds the mirror of every one-sided pair, so i ∈ F(j) ⇔ j ∈ F(i).
+void symmetrize(Lists& lists) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> missing;  // (owner, member to add)
+  for (std::size_t i = 0; i < lists.size(); ++i)
+    for (std::uint32_t j : lists[i])
+      if (!std::binary_search(lists[j].begin(), lists[j].end(), static_cast<std::uint32_t>(i)))
+        missing.emplace_back(j, static_cast<std::uint32_t>(i));
+  for (auto [owner, member] : missing) lists[owner].push_back(member);
+  for (auto [owner, member] : missing) std::sort(lists[owner].begin(), lists[owner].end());
+}
+
+}  // namespace
+
+void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>>& tet_face_neighbors) {
+  const auto& x = w.particles.reference_position;
+  const std::size_t n = x.size();
+  Lists lists = w.scene.family == scene::FamilyRule::mesh ? families_by_mesh(w, tet_face_neighbors)
+                                                          : families_by_distance(w);
+  symmetrize(lists);
+
+  Bonds& b = w.bonds;
+  b.offsets.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) b.offsets[i + 1] = b.offsets[i] + static_cast<std::uint32_t>(lists[i].size());
+  const std::size_t m = b.offsets[n];
+  b.neighbor.resize(m);
+  b.reverse.resize(m);
+  b.reference_length.resize(m);
+  b.weight.resize(m);
+  b.alive.assign(m, 1);
+  b.plastic_extension.assign(m, 0.0);
+  b.initial_count.resize(n);
+  parallel_for_each(n, [&](std::size_t i) {
+    const Mat3& G = w.scene.materials[w.particles.material_id[i]].anisotropy;
+    const bool isotropic = G == Mat3::Identity();
+    const double delta = w.model.horizon[i];
+    b.initial_count[i] = static_cast<std::uint32_t>(lists[i].size());
+    std::uint32_t k = b.offsets[i];
+    for (std::uint32_t j : lists[i]) {
+      const Vec3 xi = x[j] - x[i];
+      const double r = xi.norm();
+      b.neighbor[k] = j;
+      b.reference_length[k] = r;
+      // Eq 5 (isotropic) and Eq 17 (ω = δ/|Gξ|); G = I takes the isotropic path so it is bit-identical.
+      b.weight[k] = isotropic ? delta / r : delta / (G * xi).norm();
+      const auto& lj = lists[j];
+      b.reverse[k] = b.offsets[j] + static_cast<std::uint32_t>(
+                                        std::lower_bound(lj.begin(), lj.end(), static_cast<std::uint32_t>(i)) - lj.begin());
+      ++k;
+    }
+  }, 256);
+}
+
+}  // namespace perifx::systems

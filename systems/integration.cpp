@@ -1,0 +1,58 @@
+// Integration systems: explicit velocity Verlet (kick–drift–kick), symplectic and second order.
+//   kick_begin:  v ← v·exp(−c dt/2) + (dt/2) a        (free particles)
+//   drift:       y ← y + dt v                          (all particles)
+//   kick_end:    a ← F/m;  v ← v·exp(−c dt/2) + (dt/2) a   (free particles)
+// c is the material's mass-proportional damping rate (0 by default: undamped, energy-conserving).
+// Particles whose velocity a boundary condition prescribes this step (flag kPrescribed) are not
+// kicked: the boundary condition system owns their velocity.
+// kick_begin  reads acceleration, flags; writes velocity.
+// drift       reads velocity;            writes position.
+// kick_end    reads internal_force, external_force, flags; writes velocity, acceleration.
+#include <cmath>
+
+#include "parallel.hpp"
+#include "systems.hpp"
+
+namespace perifx::systems {
+
+SystemDecl kick_begin_system(WorldState& w) {
+  return {"kick_begin", {Component::acceleration, Component::flags}, {Component::velocity}, [&w] {
+            const double half = 0.5 * w.clock.dt;
+            auto& p = w.particles;
+            parallel_for_each(p.count(), [&](std::size_t i) {
+              if (p.flags[i] & kPrescribed) return;
+              const double c = w.model.damping[i];
+              const double decay = c > 0.0 ? std::exp(-c * half) : 1.0;
+              p.velocity[i] = decay * p.velocity[i] + half * p.acceleration[i];
+            }, 4096);
+          }};
+}
+
+SystemDecl drift_system(WorldState& w) {
+  return {"drift", {Component::velocity}, {Component::position}, [&w] {
+            const double dt = w.clock.dt;
+            auto& p = w.particles;
+            parallel_for_each(p.count(), [&](std::size_t i) { p.position[i] += dt * p.velocity[i]; }, 4096);
+          }};
+}
+
+SystemDecl kick_end_system(WorldState& w) {
+  return {"kick_end",
+          {Component::internal_force, Component::external_force, Component::flags},
+          {Component::velocity, Component::acceleration},
+          [&w] {
+            const double half = 0.5 * w.clock.dt;
+            auto& p = w.particles;
+            const auto& s = w.state;
+            parallel_for_each(p.count(), [&](std::size_t i) {
+              const Vec3 a = (s.internal_force[i] + s.external_force[i]) / p.mass[i];
+              p.acceleration[i] = a;
+              if (p.flags[i] & kPrescribed) return;
+              const double c = w.model.damping[i];
+              const double decay = c > 0.0 ? std::exp(-c * half) : 1.0;
+              p.velocity[i] = decay * p.velocity[i] + half * a;
+            }, 4096);
+          }};
+}
+
+}  // namespace perifx::systems

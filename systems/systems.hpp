@@ -1,0 +1,41 @@
+// Every system of a perifx step, and the kernels they wrap. One .cpp per system; each file's header
+// comment names the paper's equations it implements and the components it reads and writes.
+//
+// Per-step order (the scheduler derives the actual graph from the declared reads/writes):
+//   kick_begin → boundary_conditions → drift → colliders → dilatation → (plasticity) → elastic_force
+//   external_loads (independent of the chain above)  → kick_end → (fracture → damage)
+// i.e. velocity Verlet (kick–drift–kick), with constraints applied to the velocity before the drift.
+#pragma once
+#include <vector>
+
+#include "scheduler.hpp"
+#include "world_state.hpp"
+
+namespace perifx::systems {
+
+// ---- setup (run once, not part of the step graph) ----
+// family_build.cpp: families and bond data from reference positions, horizons and, for the mesh
+// rule, the face adjacency of the embedded tet mesh (notes.md, §5.2 "mesh connectivity").
+void build_families(WorldState& world, const std::vector<std::array<std::int32_t, 4>>& tet_face_neighbors);
+// model_constants.cpp: per-particle a, b, θ scale and β for the paper or discrete normalization.
+void compute_model_constants(WorldState& world);
+
+// ---- kernels (also used by the stability estimate and the tests) ----
+// θ_i (Eq 6) and P_i for positions y; theta and coupling sized particle count.
+void compute_dilatation(const WorldState& world, const std::vector<Vec3>& y, std::vector<double>& theta,
+                        std::vector<double>& coupling);
+// Internal force on every particle (Eq 2–4, 8–10/12, paired as in notes.md), N.
+void compute_internal_force(const WorldState& world, const std::vector<Vec3>& y,
+                            const std::vector<double>& coupling, std::vector<Vec3>& force);
+
+// ---- per-step systems ----
+SystemDecl kick_begin_system(WorldState& world);
+SystemDecl boundary_condition_system(WorldState& world);
+SystemDecl drift_system(WorldState& world);
+SystemDecl collider_system(WorldState& world);
+SystemDecl dilatation_system(WorldState& world);
+SystemDecl elastic_force_system(WorldState& world);
+SystemDecl external_load_system(WorldState& world);
+SystemDecl kick_end_system(WorldState& world);
+
+}  // namespace perifx::systems
