@@ -12,57 +12,85 @@
 namespace perifx::systems {
 namespace {
 
-template <bool kAnisotropic, bool kPlastic>
-void force_kernel(const WorldState& w, const std::vector<Vec3>& y, const std::vector<double>& coupling,
-                  std::vector<Vec3>& force) {
+// Visits every alive bond i→j of particle i with its paired scalar
+//   s_ij = ½ (A_ij + A_ji) / |y_j − y_i|,  so the pair force density is s_ij (y_j − y_i).
+// One definition serves the force and the virial stress, so they can never disagree.
+template <bool kAnisotropic, bool kPlastic, class Sink>
+inline void visit_bonds(const WorldState& w, const std::vector<Vec3>& y, const std::vector<double>& coupling,
+                        std::size_t i, Sink&& sink) {
   const Bonds& b = w.bonds;
   const auto& x = w.particles.reference_position;
-  const auto& volume = w.particles.volume;
   const auto& b4 = w.model.b4;
-  parallel_for_each(w.particles.count(), [&](std::size_t i) {
-    const Vec3 yi = y[i], xi = x[i];
-    const double p_i = coupling[i], b4_i = b4[i];
-    Vec3 f = Vec3::Zero();
-    for (std::uint32_t k = b.offsets[i], end = b.offsets[i + 1]; k < end; ++k) {
-      if (!b.alive[k]) continue;
-      const std::uint32_t j = b.neighbor[k];
-      const Vec3 dy = y[j] - yi;
-      const double len = dy.norm();
-      if (!(len > 0.0)) continue;  // coincident particles: no direction, no force
-      const double inv_len = 1.0 / len;
-      const double r = b.reference_length[k];
-      const double e = len - r;
-      const double lambda = dy.dot(x[j] - xi) * inv_len / r;
-      const double w_ij = b.weight[k];
-      double e_ij = e, e_ji = e;
-      double w_ji = w_ij;
-      if constexpr (kAnisotropic || kPlastic) {
-        const std::uint32_t m = b.reverse[k];
-        if constexpr (kAnisotropic) w_ji = b.weight[m];
-        if constexpr (kPlastic) {
-          e_ij -= b.plastic_extension[k];
-          e_ji -= b.plastic_extension[m];
-        }
+  const Vec3 yi = y[i], xi = x[i];
+  const double p_i = coupling[i], b4_i = b4[i];
+  for (std::uint32_t k = b.offsets[i], end = b.offsets[i + 1]; k < end; ++k) {
+    if (!b.alive[k]) continue;
+    const std::uint32_t j = b.neighbor[k];
+    const Vec3 dy = y[j] - yi;
+    const double len = dy.norm();
+    if (!(len > 0.0)) continue;  // coincident particles: no direction, no force
+    const double inv_len = 1.0 / len;
+    const double r = b.reference_length[k];
+    const double e = len - r;
+    const double lambda = dy.dot(x[j] - xi) * inv_len / r;
+    const double w_ij = b.weight[k];
+    double e_ij = e, e_ji = e;
+    double w_ji = w_ij;
+    if constexpr (kAnisotropic || kPlastic) {
+      const std::uint32_t m = b.reverse[k];
+      if constexpr (kAnisotropic) w_ji = b.weight[m];
+      if constexpr (kPlastic) {
+        e_ij -= b.plastic_extension[k];
+        e_ji -= b.plastic_extension[m];
       }
-      const double a_ij = w_ij * (lambda * p_i + b4_i * e_ij);
-      const double a_ji = w_ji * (lambda * coupling[j] + b4[j] * e_ji);
-      f += (0.5 * (a_ij + a_ji) * volume[j] * inv_len) * dy;
     }
-    force[i] = volume[i] * f;
-  }, 256);
+    const double a_ij = w_ij * (lambda * p_i + b4_i * e_ij);
+    const double a_ji = w_ji * (lambda * coupling[j] + b4[j] * e_ji);
+    sink(k, j, 0.5 * (a_ij + a_ji) * inv_len, dy);
+  }
+}
+
+template <class Kernel>
+void dispatch(const WorldState& w, Kernel&& kernel) {
+  if (w.any_anisotropic) {
+    if (w.any_plastic) kernel(std::true_type{}, std::true_type{});
+    else kernel(std::true_type{}, std::false_type{});
+  } else {
+    if (w.any_plastic) kernel(std::false_type{}, std::true_type{});
+    else kernel(std::false_type{}, std::false_type{});
+  }
 }
 
 }  // namespace
 
 void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y, const std::vector<double>& coupling,
                             std::vector<Vec3>& force) {
-  if (w.any_anisotropic) {
-    if (w.any_plastic) force_kernel<true, true>(w, y, coupling, force);
-    else force_kernel<true, false>(w, y, coupling, force);
-  } else {
-    if (w.any_plastic) force_kernel<false, true>(w, y, coupling, force);
-    else force_kernel<false, false>(w, y, coupling, force);
-  }
+  const auto& volume = w.particles.volume;
+  dispatch(w, [&](auto aniso, auto plastic) {
+    parallel_for_each(w.particles.count(), [&](std::size_t i) {
+      Vec3 f = Vec3::Zero();
+      visit_bonds<decltype(aniso)::value, decltype(plastic)::value>(
+          w, y, coupling, i, [&](std::uint32_t, std::uint32_t j, double s, const Vec3& dy) { f += (s * volume[j]) * dy; });
+      force[i] = volume[i] * f;
+    }, 256);
+  });
+}
+
+void compute_virial_stress(const WorldState& w, const std::vector<Vec3>& y, const std::vector<double>& coupling,
+                           std::vector<Mat3>& stress) {
+  const auto& volume = w.particles.volume;
+  const auto& x = w.particles.reference_position;
+  stress.resize(w.particles.count());
+  dispatch(w, [&](auto aniso, auto plastic) {
+    parallel_for_each(w.particles.count(), [&](std::size_t i) {
+      Mat3 s_i = Mat3::Zero();
+      visit_bonds<decltype(aniso)::value, decltype(plastic)::value>(
+          w, y, coupling, i, [&](std::uint32_t, std::uint32_t j, double s, const Vec3& dy) {
+            s_i += (0.5 * s * volume[j]) * dy * (x[j] - x[i]).transpose();
+          });
+      stress[i] = s_i;
+    }, 256);
+  });
 }
 
 SystemDecl elastic_force_system(WorldState& w) {
