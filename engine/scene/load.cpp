@@ -1,0 +1,368 @@
+// Scene loading: parse (with line:column errors and duplicate-key detection), validate against the
+// spec (schema.cpp), then convert the validated JSON into the typed Scene. The converter only
+// performs checks the per-key spec cannot express: cross-key relations, name references, files.
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <utility>
+
+#include "scene/scene.hpp"
+#include "scene/schema.hpp"
+
+namespace fs = std::filesystem;
+
+namespace perifx::scene {
+
+SceneError::SceneError(std::string file, std::string pointer, std::string message)
+    : std::runtime_error(file + ": " + (pointer.empty() ? "" : pointer + ": ") + message),
+      file_(std::move(file)),
+      pointer_(std::move(pointer)),
+      message_(std::move(message)) {}
+
+namespace {
+
+using detail::Json;
+using detail::child_pointer;
+using detail::show;
+
+// nlohmann reports a byte offset (1-based, the offending byte); people want line and column.
+std::pair<std::size_t, std::size_t> line_column(const std::string& text, std::size_t byte) {
+  const std::size_t at = std::min(byte > 0 ? byte - 1 : 0, text.size());
+  std::size_t line = 1, line_start = 0;
+  for (std::size_t i = 0; i < at; ++i)
+    if (text[i] == '\n') ++line, line_start = i + 1;
+  return {line, at - line_start + 1};
+}
+
+Json parse(const std::string& text, const std::string& file) {
+  // Duplicate keys are legal JSON but nlohmann silently keeps the last one, which would hide
+  // e.g. two materials of the same name. A parser callback tracks the path to report them.
+  struct Frame {
+    bool array;
+    std::size_t index = 0;  // array: the element being parsed
+    std::string key;        // object: the member being parsed
+    std::vector<std::string> seen;
+  };
+  std::vector<Frame> stack;
+  const auto pointer = [&] {
+    std::string p;
+    for (std::size_t i = 0; i + 1 < stack.size(); ++i)
+      p = stack[i].array ? p + "/" + std::to_string(stack[i].index) : child_pointer(p, stack[i].key);
+    return p;
+  };
+  const Json::parser_callback_t callback = [&](int, Json::parse_event_t event, Json& parsed) {
+    switch (event) {
+      case Json::parse_event_t::object_start: stack.push_back({false, 0, {}, {}}); break;
+      case Json::parse_event_t::array_start: stack.push_back({true, 0, {}, {}}); break;
+      case Json::parse_event_t::key: {
+        Frame& f = stack.back();
+        f.key = parsed.get<std::string>();
+        if (std::find(f.seen.begin(), f.seen.end(), f.key) != f.seen.end())
+          throw SceneError(file, child_pointer(pointer(), f.key),
+                           "duplicate key '" + f.key + "' (expected each key once per object)");
+        f.seen.push_back(f.key);
+        break;
+      }
+      case Json::parse_event_t::object_end:
+      case Json::parse_event_t::array_end:
+        stack.pop_back();
+        if (!stack.empty() && stack.back().array) ++stack.back().index;
+        break;
+      case Json::parse_event_t::value:
+        if (!stack.empty() && stack.back().array) ++stack.back().index;
+        break;
+    }
+    return true;
+  };
+  try {
+    return Json::parse(text, callback);
+  } catch (const Json::parse_error& e) {
+    const auto [line, column] = line_column(text, e.byte);
+    // what() is "[json.exception.parse_error.101] parse error at line L, column C: <reason>";
+    // keep only the reason, the position is ours.
+    std::string reason = e.what();
+    if (const auto at = reason.find("column"); at != std::string::npos) {
+      if (const auto colon = reason.find(": ", at); colon != std::string::npos) reason = reason.substr(colon + 2);
+    }
+    const std::size_t at = e.byte > 0 ? e.byte - 1 : 0;
+    const bool comment = at < text.size() && text[at] == '/';
+    throw SceneError(file, "",
+                     "line " + std::to_string(line) + ", column " + std::to_string(column) +
+                         ": invalid JSON: " + reason +
+                         (comment ? " (comments are not allowed in JSON; use a \"_comment\" key)" : ""));
+  } catch (const Json::out_of_range& e) {
+    // Number literals beyond the double range (1e999); nlohmann gives no position for these.
+    std::string reason = e.what();
+    if (const auto at = reason.find("] "); at != std::string::npos) reason = reason.substr(at + 2);
+    throw SceneError(file, "", "invalid JSON: " + reason + " (expected finite numbers)");
+  }
+}
+
+class Converter {
+ public:
+  Converter(std::string file, fs::path folder) : file_(std::move(file)), folder_(std::move(folder)) {}
+
+  Scene run(const Json& j, const fs::path& source) {
+    Scene s;
+    s.source = source;
+    s.name = j.contains("name") ? j["name"].get<std::string>() : source.stem().string();
+    s.threads = j["threads"].get<int>();
+    s.gravity = vec(j["gravity"]);
+
+    const Json& t = j["time"];
+    s.time = {num(t["dt"]), num(t["duration"]), num(t["frame_rate"])};
+    if (s.time.dt > s.time.duration)
+      fail("/time/dt", "time step longer than the duration (got " + show(t["dt"]) +
+                           "; expected at most duration = " + show(t["duration"]) + ")");
+
+    s.normalization = j["model"]["normalization"] == "paper" ? Normalization::paper : Normalization::discrete;
+    s.family = j["model"]["family"] == "mesh" ? FamilyRule::mesh : FamilyRule::distance;
+
+    for (const auto& [name, m] : j["materials"].items())
+      if (name.front() != '_') s.materials.push_back(material(name, m, child_pointer("/materials", name)));
+    for (const auto& m : s.materials) material_names_.push_back(m.name);
+
+    const Json& bodies = j["bodies"];
+    for (std::size_t i = 0; i < bodies.size(); ++i) {
+      const std::string p = "/bodies/" + std::to_string(i);
+      s.bodies.push_back(body(bodies[i], p, i));
+      const std::string& name = s.bodies.back().name;
+      if (std::find(body_names_.begin(), body_names_.end(), name) != body_names_.end())
+        fail(p + "/name", "duplicate body name (got " + show(Json(name)) + "; expected a name not used by another body)");
+      body_names_.push_back(name);
+    }
+
+    const Json& conditions = j["boundary_conditions"];
+    for (std::size_t i = 0; i < conditions.size(); ++i)
+      s.boundary_conditions.push_back(condition(conditions[i], "/boundary_conditions/" + std::to_string(i)));
+    const Json& colliders = j["colliders"];
+    for (std::size_t i = 0; i < colliders.size(); ++i) s.colliders.push_back(collider(colliders[i]));
+
+    const Json& o = j["output"];
+    s.output.directory = fs::absolute(fs::path(o["directory"].get<std::string>())).lexically_normal();
+    const auto& formats = o["formats"];
+    s.output.vtu = std::find(formats.begin(), formats.end(), "vtu") != formats.end();
+    s.output.ply = std::find(formats.begin(), formats.end(), "ply") != formats.end();
+    s.output.fields = o["fields"].get<std::vector<std::string>>();
+    return s;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& ptr, const std::string& message) const {
+    throw SceneError(file_, ptr, message);
+  }
+
+  static double num(const Json& v) { return v.get<double>(); }
+  static Vec3 vec(const Json& v) { return {num(v[0]), num(v[1]), num(v[2])}; }
+  static Mat3 rotation(const Json& r) {
+    return Eigen::AngleAxisd(num(r["degrees"]) * kPi / 180.0, vec(r["axis"]).normalized()).toRotationMatrix();
+  }
+
+  // Index of `name` in `names`, or a SceneError listing the names that do exist.
+  int lookup(const Json& name_json, const std::vector<std::string>& names, const std::string& what,
+             const std::string& ptr) const {  // `what`: "material" or "body"
+    const std::string name = name_json.get<std::string>();
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it != names.end()) return static_cast<int>(it - names.begin());
+    const std::string guess = detail::closest(name, names);
+    fail(ptr, "unknown " + what + (guess.empty() ? "" : "; did you mean '" + guess + "'?") + " (got " +
+                  show(name_json) + "; expected one of the defined " +
+                  (what == "body" ? "bodies" : what + "s") + ": " + detail::join(names) + ")");
+  }
+
+  Material material(const std::string& name, const Json& m, const std::string& p) const {
+    Material out;
+    out.name = name;
+    out.density = num(m["density"]);
+    if (m.contains("bulk_modulus")) {
+      out.bulk_modulus = num(m["bulk_modulus"]);
+      out.shear_modulus = num(m["shear_modulus"]);
+    } else {
+      const double E = num(m["youngs_modulus"]), nu = num(m["poisson_ratio"]);
+      out.bulk_modulus = E / (3.0 * (1.0 - 2.0 * nu));
+      out.shear_modulus = E / (2.0 * (1.0 + nu));
+    }
+    out.yield_energy = num(m["yield_energy"]);
+    out.plastic_cap_ratio = num(m["plastic_cap_ratio"]);
+    out.critical_stretch = num(m["critical_stretch"]);
+    out.damage_alpha = num(m["damage_alpha"]);
+    out.damping = num(m["damping"]);
+    if (m.contains("anisotropy")) {
+      const Json& a = m["anisotropy"];
+      if (a.contains("matrix")) {
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) out.anisotropy(r, c) = num(a["matrix"][r][c]);
+        // Scale-free test: |det G| against ‖G‖³, so tiny but well-conditioned G still passes.
+        const double scale = out.anisotropy.norm();
+        if (!(std::abs(out.anisotropy.determinant()) > 1e-12 * scale * scale * scale))
+          fail(p + "/anisotropy/matrix",
+               "singular matrix (got " + show(a["matrix"]) + "; expected an invertible 3x3 matrix)");
+      } else if (a.contains("axis")) {
+        const Vec3 axis = vec(a["axis"]).normalized();
+        const Mat3 along = axis * axis.transpose();
+        out.anisotropy = num(a["ratio_along"]) * along + num(a["ratio_across"]) * (Mat3::Identity() - along);
+      }
+    }
+    return out;
+  }
+
+  Body body(const Json& b, const std::string& p, std::size_t index) const {
+    Body out;
+    out.name = b.contains("name") ? b["name"].get<std::string>() : "body" + std::to_string(index);
+    out.material = lookup(b["material"], material_names_, "material", p + "/material");
+
+    const Json& g = b["geometry"];
+    const std::string type = g["type"].get<std::string>();
+    Geometry& geo = out.geometry;
+    if (type == "box") {
+      geo.kind = Geometry::Kind::box;
+      geo.size = vec(g["size"]);
+    } else if (type == "sphere") {
+      geo.kind = Geometry::Kind::sphere;
+      geo.radius = num(g["radius"]);
+    } else if (type == "cylinder") {
+      geo.kind = Geometry::Kind::cylinder;
+      geo.radius = num(g["radius"]);
+      geo.height = num(g["height"]);
+      geo.axis = g["axis"].get<std::string>()[0] - 'x';
+    } else {
+      geo.kind = Geometry::Kind::tetgen;
+      geo.path = tetgen_file(g["path"], p + "/geometry/path");
+    }
+    if (geo.kind != Geometry::Kind::tetgen) {
+      // Exactly one is set, so downstream can test edge_length > 0.
+      if (g.contains("edge_length")) geo.edge_length = num(g["edge_length"]);
+      else geo.resolution = g["resolution"].get<int>();
+    }
+
+    const Json& tr = b["transform"];
+    out.transform.translation = vec(tr["translate"]);
+    if (tr.contains("rotate")) out.transform.rotation = rotation(tr["rotate"]);
+    out.transform.scale = num(tr["scale"]);
+    out.velocity = vec(b["velocity"]);
+    out.angular_velocity = vec(b["angular_velocity"]);
+
+    const Json& h = b["horizon"];
+    if (h.is_number()) out.horizon_factor = num(h);
+    else if (h.contains("factor")) out.horizon_factor = num(h["factor"]);
+    else out.horizon_length = num(h["length"]);
+    return out;
+  }
+
+  fs::path tetgen_file(const Json& path_json, const std::string& ptr) const {
+    const fs::path node = (folder_ / path_json.get<std::string>()).lexically_normal();
+    const fs::path ele = fs::path(node).replace_extension(".ele");
+    for (const fs::path& f : {node, ele}) {
+      std::error_code ec;
+      if (!fs::is_regular_file(f, ec))
+        fail(ptr, "mesh file not found: " + f.string() + " (got " + show(path_json) +
+                      "; expected a TetGen .node file, with its .ele beside it, relative to " +
+                      folder_.string() + ")");
+    }
+    return node;
+  }
+
+  Region region(const Json& r, const std::string& p) const {
+    Region out;
+    const std::string type = r["type"].get<std::string>();
+    if (type == "all") {
+      out.kind = Region::Kind::all;
+    } else if (type == "box") {
+      out.kind = Region::Kind::box;
+      out.min = vec(r["min"]);
+      out.max = vec(r["max"]);
+      if (!(out.max.array() > out.min.array()).all())
+        fail(p + "/max", "empty box (got " + show(r["max"]) + "; expected greater than min = " +
+                             show(r["min"]) + " in every component)");
+    } else if (type == "sphere") {
+      out.kind = Region::Kind::sphere;
+      out.center = vec(r["center"]);
+      out.radius = num(r["radius"]);
+    } else {
+      out.kind = Region::Kind::halfspace;
+      out.point = vec(r["point"]);
+      out.normal = vec(r["normal"]).normalized();
+    }
+    if (r.contains("body")) out.body = lookup(r["body"], body_names_, "body", p + "/body");
+    return out;
+  }
+
+  BoundaryCondition condition(const Json& c, const std::string& p) const {
+    BoundaryCondition out;
+    const std::string type = c["type"].get<std::string>();
+    out.kind = type == "anchor"     ? BoundaryCondition::Kind::anchor
+               : type == "velocity" ? BoundaryCondition::Kind::velocity
+                                    : BoundaryCondition::Kind::displacement;
+    out.region = region(c["region"], p + "/region");
+    out.window = {num(c["start"]), num(c["ramp"]), num(c["end"])};
+    if (!(out.window.end > out.window.start))
+      fail(p + "/end", "ends before it starts (got " + show(c["end"]) + "; expected a time after start = " +
+                           show(c["start"]) + ")");
+    if (out.kind == BoundaryCondition::Kind::velocity) {
+      out.velocity = vec(c["velocity"]);
+      out.angular_velocity = vec(c["angular_velocity"]);
+      out.center = vec(c["center"]);
+    } else if (out.kind == BoundaryCondition::Kind::displacement) {
+      out.displacement = vec(c["displacement"]);
+      out.center = vec(c["center"]);
+      if (c.contains("rotation")) {
+        out.rotation_axis = vec(c["rotation"]["axis"]).normalized();
+        out.rotation_angle = num(c["rotation"]["degrees"]) * kPi / 180.0;
+      }
+    }
+    return out;
+  }
+
+  static Collider collider(const Json& c) {
+    Collider out;
+    const std::string type = c["type"].get<std::string>();
+    if (type == "plane") {
+      out.kind = Collider::Kind::plane;
+      out.point = vec(c["point"]);
+      out.normal = vec(c["normal"]).normalized();
+    } else if (type == "sphere") {
+      out.kind = Collider::Kind::sphere;
+      out.center = vec(c["center"]);
+      out.radius = num(c["radius"]);
+    } else {
+      out.kind = Collider::Kind::box;
+      out.center = vec(c["center"]);
+      out.half_extents = 0.5 * vec(c["size"]);
+      if (c.contains("rotate")) out.orientation = rotation(c["rotate"]);
+    }
+    out.velocity = vec(c["velocity"]);
+    out.angular_velocity = vec(c["angular_velocity"]);
+    out.friction = num(c["friction"]);
+    out.restitution = num(c["restitution"]);
+    return out;
+  }
+
+  std::string file_;
+  fs::path folder_;  // absolute folder of the scene file, for relative mesh paths
+  std::vector<std::string> material_names_, body_names_;
+};
+
+}  // namespace
+
+Scene load_scene_text(const std::string& text, const fs::path& file) {
+  const std::string name = file.string();
+  Json j = parse(text, name);
+  detail::validate(j, name);
+  return Converter(name, fs::absolute(file).parent_path()).run(j, file);
+}
+
+Scene load_scene_file(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in)
+    throw SceneError(file.string(), "", "cannot open the scene file (got " + fs::absolute(file).string() +
+                                            "; expected a readable JSON file)");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return load_scene_text(text.str(), file);
+}
+
+}  // namespace perifx::scene

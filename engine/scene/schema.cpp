@@ -1,0 +1,720 @@
+// The scene spec table, the validator that walks JSON against it, and the markdown reference
+// generated from it. Adding a key means adding one line to build_spec() (and reading it in
+// load.cpp); its checks, default, error messages and documentation all follow from that line.
+#include "scene/schema.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <climits>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "scene/scene.hpp"
+
+namespace perifx::scene::detail {
+
+// ---------------------------------------------------------------------------------------------
+// Spec table
+// ---------------------------------------------------------------------------------------------
+namespace {
+
+Key key(std::string name, Type type, std::string doc) {
+  Key k;
+  k.name = std::move(name);
+  k.type = type;
+  k.doc = std::move(doc);
+  return k;
+}
+Key number(std::string n, std::string d) { return key(std::move(n), Type::number, std::move(d)); }
+Key integer(std::string n, std::string d) { return key(std::move(n), Type::integer, std::move(d)); }
+Key text(std::string n, std::string d) { return key(std::move(n), Type::string, std::move(d)); }
+Key vec3(std::string n, std::string d) { return key(std::move(n), Type::vec3, std::move(d)); }
+Key mat3(std::string n, std::string d) { return key(std::move(n), Type::mat3, std::move(d)); }
+Key choice(std::string n, std::vector<std::string> choices, std::string d) {
+  Key k = key(std::move(n), Type::enumeration, std::move(d));
+  k.choices = std::move(choices);
+  return k;
+}
+Key strings(std::string n, std::vector<std::string> choices, std::string d) {
+  Key k = key(std::move(n), Type::string_list, std::move(d));
+  k.choices = std::move(choices);
+  return k;
+}
+Key nested(std::string n, Type t, std::string label, std::string d, std::vector<Key> keys) {
+  Key k = key(std::move(n), t, std::move(d));
+  k.label = std::move(label);
+  k.keys = std::move(keys);
+  return k;
+}
+Key object(std::string n, std::string label, std::string d, std::vector<Key> keys) {
+  return nested(std::move(n), Type::object, std::move(label), std::move(d), std::move(keys));
+}
+Key rotation(std::string n, std::string d) {
+  return object(std::move(n), "rotation", std::move(d),
+                {vec3("axis", "Rotation axis, any length (normalized on load).").not_zero().req(),
+                 number("degrees", "Angle about `axis`, degrees, right-handed.").req()});
+}
+
+const Json kZero = Json::array({0, 0, 0});
+const std::vector<std::string> kMeshers = {"box", "sphere", "cylinder"};
+
+Key build_spec() {
+  Key material = nested("materials", Type::map, "material",
+      "Named materials; bodies refer to them by name (names cannot start with `_`).", {
+      number("density", "Mass density ρ, kg/m³.").gt(0).def(1000),
+      number("bulk_modulus", "Bulk modulus κ, Pa.").gt(0),
+      number("shear_modulus", "Shear modulus μ, Pa.").gt(0),
+      number("youngs_modulus", "Young's modulus E, Pa. With ν: κ = E/(3(1−2ν)), μ = E/(2(1+ν)).").gt(0),
+      number("poisson_ratio", "Poisson's ratio ν.").gt(-1).lt(0.5),
+      number("yield_energy", "Plastic yield energy Ψ0 (Eq 13); \"inf\" = purely elastic.")
+          .gt(0).or_inf().def("inf"),
+      number("plastic_cap_ratio", "Plastic cap γ/|ξ| (Eq 16).").ge(0).def(0),
+      number("critical_stretch", "Critical bond stretch s_c (Eq 19); \"inf\" = unbreakable.")
+          .gt(0).or_inf().def("inf"),
+      number("damage_alpha", "Damage parameter α (Eq 19).").ge(0).def(0),
+      object("anisotropy", "anisotropy", "Anisotropy tensor G (Eq 17); omitted = identity.", {
+          mat3("matrix", "G itself, as rows; must be invertible."),
+          vec3("axis", "Direction a (normalized on load): "
+                       "G = ratio_along·a aᵀ + ratio_across·(I − a aᵀ).").not_zero(),
+          number("ratio_along", "Factor along `axis`.").gt(0).def(1),
+          number("ratio_across", "Factor across `axis`.").gt(0).def(1),
+      }).one_of({{"matrix"}, {"axis", "ratio_along", "ratio_across"}}, false),
+      number("damping", "Mass-proportional velocity damping, 1/s; 0 = none.").ge(0).def(0),
+  }).one_of({{"bulk_modulus", "shear_modulus"}, {"youngs_modulus", "poisson_ratio"}}, true);
+
+  Key body = nested("bodies", Type::array, "body", "The deformable bodies.", {
+      text("name", "Unique body name.").def_text("`\"body<k>\"`, k = index in `bodies`"),
+      text("material", "Name of one of `materials`.").req(),
+      object("geometry", "geometry", "Shape, meshed into tets; primitives are centered at the origin.", {
+          choice("type", {"box", "sphere", "cylinder", "tetgen"},
+                 "A primitive for the built-in structured mesher, or a TetGen mesh.").req(),
+          vec3("size", "Full edge lengths, m.").gt(0).req().only({"box"}),
+          number("radius", "Radius, m.").gt(0).req().only({"sphere", "cylinder"}),
+          number("height", "Length along `axis`, m.").gt(0).req().only({"cylinder"}),
+          choice("axis", {"x", "y", "z"}, "Cylinder axis.").def("y").only({"cylinder"}),
+          text("path", "The .node file, relative to the scene file's folder; the .ele with the "
+                       "same stem must be beside it.").req().only({"tetgen"}),
+          number("edge_length", "Target cell size of the structured mesh, m.").gt(0).only(kMeshers),
+          integer("resolution", "Cells along the longest extent of the structured mesh.")
+              .ge(1).def(20).only(kMeshers),
+      }).one_of({{"edge_length"}, {"resolution"}}, false).req(),
+      object("transform", "transform", "Placement of the mesh: x ↦ R·(scale·x) + translate.", {
+          vec3("translate", "Translation, m.").def(kZero),
+          rotation("rotate", "Rotation R; omitted = none."),
+          number("scale", "Uniform scale factor.").gt(0).def(1),
+      }).def(Json::object()),
+      vec3("velocity", "Initial velocity, m/s.").def(kZero),
+      vec3("angular_velocity", "Initial angular velocity about the reference centroid, rad/s.")
+          .def(kZero),
+      nested("horizon", Type::number_or_object, "horizon",
+             "Horizon δ. A number f means δ = f·λ (λ = mean tet edge length); "
+             "or an object with `factor` (the same) or `length` (δ in metres).", {
+          number("factor", "δ = factor·λ.").gt(0),
+          number("length", "δ in metres.").gt(0),
+      }).gt(0).def(1.45).one_of({{"factor"}, {"length"}}, true),
+  }).at_least(1).req();
+
+  Key condition = nested("boundary_conditions", Type::array, "boundary condition",
+      "Prescribed motion of particle regions. Strength is 0 before `start`, rises linearly to 1 "
+      "over `ramp` seconds, stays 1 until `end`, then the condition is released.", {
+      choice("type", {"anchor", "velocity", "displacement"},
+             "`anchor` holds particles at their reference positions; `velocity` and "
+             "`displacement` prescribe them.").req(),
+      object("region", "region", "The particles it acts on, tested on reference positions "
+                                 "(after the body transform).", {
+          choice("type", {"all", "box", "sphere", "halfspace"}, "Region shape.").req(),
+          vec3("min", "Lower corner, m.").req().only({"box"}),
+          vec3("max", "Upper corner, m; greater than `min` in every component.").req().only({"box"}),
+          vec3("center", "Center, m.").req().only({"sphere"}),
+          number("radius", "Radius, m.").gt(0).req().only({"sphere"}),
+          vec3("point", "A point on the bounding plane, m.").req().only({"halfspace"}),
+          vec3("normal", "Normal (normalized on load); selects (x − point)·normal ≥ 0.")
+              .not_zero().req().only({"halfspace"}),
+          text("body", "Only particles of the body with this name; omitted = every body."),
+      }).req(),
+      number("start", "Start time, s.").ge(0).def(0),
+      number("ramp", "Ramp-up duration after `start`, s.").ge(0).def(0),
+      number("end", "Release time, s; after `start`. \"inf\" = never.").gt(0).or_inf().def("inf"),
+      vec3("velocity", "v = ramp·(velocity + angular_velocity × (x − center)), m/s.")
+          .def(kZero).only({"velocity"}),
+      vec3("angular_velocity", "Angular velocity about `center`, rad/s.").def(kZero).only({"velocity"}),
+      vec3("center", "Center of the rotational part, m.").def(kZero).only({"velocity", "displacement"}),
+      vec3("displacement", "u = ramp·(displacement + (R − I)(x − center)), m.")
+          .def(kZero).only({"displacement"}),
+      rotation("rotation", "Rotation R about `center`; omitted = none.").only({"displacement"}),
+  }).def(Json::array());
+
+  Key collider = nested("colliders", Type::array, "collider",
+      "Kinematic obstacles with prescribed motion.", {
+      choice("type", {"plane", "sphere", "box"}, "Shape.").req(),
+      vec3("point", "A point on the plane, m.").def(kZero).only({"plane"}),
+      vec3("normal", "Outward normal (normalized on load); the solid is on the other side.")
+          .not_zero().def(Json::array({0, 1, 0})).only({"plane"}),
+      vec3("center", "Initial center, m.").def(kZero).only({"sphere", "box"}),
+      number("radius", "Radius, m.").gt(0).req().only({"sphere"}),
+      vec3("size", "Full edge lengths, m.").gt(0).req().only({"box"}),
+      rotation("rotate", "Initial orientation; omitted = axis-aligned.").only({"box"}),
+      vec3("velocity", "Prescribed linear velocity, m/s.").def(kZero),
+      vec3("angular_velocity", "Prescribed angular velocity about its center, rad/s.").def(kZero),
+      number("friction", "Coulomb friction coefficient.").ge(0).def(0),
+      number("restitution", "Normal restitution.").ge(0).le(1).def(0),
+  }).def(Json::array());
+
+  return object("", "scene", "A scene.", {
+      text("name", "Scene name.").def_text("the scene file's name without extension"),
+      text("description", "Free text for people; ignored by the engine.").empty_ok(),
+      integer("threads", "Worker threads; 0 = all hardware threads.").ge(0).def(0),
+      vec3("gravity", "Gravitational acceleration, m/s² (Y is up).").def(Json::array({0, -9.81, 0})),
+      object("time", "time", "Time stepping.", {
+          number("dt", "Time step, s; at most `duration`.").gt(0).req(),
+          number("duration", "Simulated time, s.").gt(0).def(1),
+          number("frame_rate", "Output frames per simulated second.").gt(0).def(24),
+      }).req(),
+      object("model", "model", "Peridynamic model options.", {
+          choice("normalization", {"paper", "discrete"},
+                 "Normalization: the paper's constants, or per-particle discrete sums.").def("paper"),
+          choice("family", {"mesh", "distance"},
+                 "Bond family: distance plus mesh face-connectivity, or distance only.").def("mesh"),
+      }).def(Json::object()),
+      material.at_least(1).req(),
+      body,
+      condition,
+      collider,
+      object("output", "output", "What is written, and where.", {
+          text("directory", "Output folder, relative to the current working directory.").def("out"),
+          strings("formats", {"vtu", "ply"},
+                  "`vtu`: VTU files and a .pvd series (ParaView); `ply`: binary PLY points.")
+              .at_least(1).def(Json::array({"vtu", "ply"})),
+          strings("fields", {}, "Particle fields to write; empty = all. Names are checked by the "
+                                "engine, not here.").def(Json::array()),
+      }).def(Json::object()),
+  });
+}
+
+// ---------------------------------------------------------------------------------------------
+// Text helpers
+// ---------------------------------------------------------------------------------------------
+std::string fmt(double x) {
+  std::ostringstream s;
+  s << std::setprecision(12) << x;
+  return s.str();
+}
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+bool contains(const std::vector<std::string>& items, const std::string& item) {
+  return std::find(items.begin(), items.end(), item) != items.end();
+}
+
+std::string quoted(const std::vector<std::string>& items, const char* quote = "\"") {
+  std::vector<std::string> q;
+  for (const auto& s : items) q.push_back(quote + s + quote);
+  return join(q);
+}
+
+// Keys starting with '_' are comments (JSON has none), ignored at every level.
+bool is_comment(const std::string& name) { return !name.empty() && name.front() == '_'; }
+
+const Key* find_key(const Key& spec, const std::string& name) {
+  for (const Key& k : spec.keys)
+    if (k.name == name) return &k;
+  return nullptr;
+}
+
+std::string range_text(const Key& k) {
+  const bool has_lo = std::isfinite(k.lo), has_hi = std::isfinite(k.hi);
+  if (has_lo && has_hi)
+    return std::string(" in ") + (k.lo_open ? "(" : "[") + fmt(k.lo) + ", " + fmt(k.hi) +
+           (k.hi_open ? ")" : "]");
+  if (has_lo) return (k.lo_open ? " > " : " >= ") + fmt(k.lo);
+  if (has_hi) return (k.hi_open ? " < " : " <= ") + fmt(k.hi);
+  return "";
+}
+
+bool in_range(const Key& k, double x) {
+  const bool lo_ok = k.lo_open ? x > k.lo : x >= k.lo;
+  const bool hi_ok = k.hi_open ? x < k.hi : x <= k.hi;
+  return lo_ok && hi_ok;
+}
+
+// "'axis' (+ optional 'ratio_along', 'ratio_across')": members with a default may be left out.
+std::string group_text(const Key& spec, const std::vector<std::string>& group) {
+  std::vector<std::string> needed, optional;
+  for (const auto& n : group)
+    (find_key(spec, n)->default_value.is_null() ? needed : optional).push_back("'" + n + "'");
+  if (needed.empty()) return join(optional, " + ");
+  return join(needed, " + ") + (optional.empty() ? "" : " (+ optional " + join(optional) + ")");
+}
+
+std::string groups_list(const Key& spec) {
+  std::vector<std::string> parts;
+  for (const auto& g : spec.groups) parts.push_back(group_text(spec, g));
+  return join(parts, " or ");
+}
+std::string groups_text(const Key& spec) {
+  return (spec.groups.size() > 1 ? "either " : "") + groups_list(spec);
+}
+
+std::string count_text(std::size_t n) { return n ? ", at least " + std::to_string(n) : ""; }
+
+// What a key accepts, in words; used by error messages and by the reference alike.
+std::string expected(const Key& k) {
+  switch (k.type) {
+    case Type::number: return "a number" + range_text(k) + (k.allow_inf ? " or \"inf\"" : "");
+    case Type::integer: return "an integer" + range_text(k);
+    case Type::boolean: return "true or false";
+    case Type::string: return k.allow_empty ? "a string" : "a non-empty string";
+    case Type::enumeration: return "one of " + quoted(k.choices);
+    case Type::vec3: {
+      const std::string r = range_text(k);
+      return "an array of 3 numbers" + (r.empty() ? "" : ", each" + r) +
+             (k.nonzero ? ", not all zero" : "");
+    }
+    case Type::mat3: return "a 3x3 matrix: an array of 3 rows of 3 numbers";
+    case Type::object: return "an object";
+    case Type::map: return "an object of named " + k.label + "s" + count_text(k.min_items);
+    case Type::array: return "an array of " + k.label + " objects" + count_text(k.min_items);
+    case Type::string_list:
+      return "an array of strings" + (k.choices.empty() ? "" : " from " + quoted(k.choices)) +
+             count_text(k.min_items);
+    case Type::number_or_object:
+      return "a number" + range_text(k) + " or an object with " + groups_text(k);
+  }
+  return "";
+}
+
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validator
+// ---------------------------------------------------------------------------------------------
+class Validator {
+ public:
+  explicit Validator(const std::string& file) : file_(file) {}
+
+  void value(const Key& k, Json& v, const std::string& ptr) const {
+    switch (k.type) {
+      case Type::number:
+      case Type::integer: number(k, v, ptr); return;
+      case Type::number_or_object:
+        if (v.is_object()) object(k, v, ptr);
+        else number(k, v, ptr);
+        return;
+      case Type::boolean:
+        if (!v.is_boolean()) wrong(k, v, ptr);
+        return;
+      case Type::string:
+        if (!v.is_string()) wrong(k, v, ptr);
+        if (!k.allow_empty && v.get_ref<const std::string&>().empty()) wrong(k, v, ptr, "empty string");
+        return;
+      case Type::enumeration: {
+        if (!v.is_string()) wrong(k, v, ptr);
+        const auto& s = v.get_ref<const std::string&>();
+        if (contains(k.choices, s)) return;
+        const std::string guess = closest(s, k.choices);
+        wrong(k, v, ptr, "invalid value" + (guess.empty() ? "" : "; did you mean '" + guess + "'?"));
+      }
+      case Type::vec3: {
+        if (!is_numbers(v, 3)) wrong(k, v, ptr);
+        bool all_zero = true;
+        for (const Json& c : v) {
+          const double x = c.get<double>();
+          if (!std::isfinite(x)) wrong(k, v, ptr, "not a finite number");
+          if (!in_range(k, x)) wrong(k, v, ptr, "out of range");
+          all_zero = all_zero && x == 0.0;
+        }
+        if (k.nonzero && all_zero) wrong(k, v, ptr, "zero vector");
+        return;
+      }
+      case Type::mat3: {
+        if (!v.is_array() || v.size() != 3) wrong(k, v, ptr);
+        for (const Json& row : v) {
+          if (!is_numbers(row, 3)) wrong(k, v, ptr);
+          for (const Json& c : row)
+            if (!std::isfinite(c.get<double>())) wrong(k, v, ptr, "not a finite number");
+        }
+        return;
+      }
+      case Type::object:
+        if (!v.is_object()) wrong(k, v, ptr);
+        object(k, v, ptr);
+        return;
+      case Type::map: {
+        if (!v.is_object()) wrong(k, v, ptr);
+        std::size_t count = 0;
+        for (auto& [name, item] : v.items()) {
+          if (is_comment(name)) continue;
+          const std::string p = child_pointer(ptr, name);
+          if (name.empty()) fail(p, "empty " + k.label + " name (expected a non-empty name)");
+          if (!item.is_object())
+            fail(p, "wrong type (got " + show(item) + "; expected an object describing a " +
+                        k.label + ")");
+          object(k, item, p);
+          ++count;
+        }
+        if (count < k.min_items) wrong(k, v, ptr, "too few entries");
+        return;
+      }
+      case Type::array: {
+        if (!v.is_array()) wrong(k, v, ptr);
+        for (std::size_t i = 0; i < v.size(); ++i) {
+          const std::string p = ptr + "/" + std::to_string(i);
+          if (!v[i].is_object())
+            fail(p, "wrong type (got " + show(v[i]) + "; expected an object describing a " +
+                        k.label + ")");
+          object(k, v[i], p);
+        }
+        if (v.size() < k.min_items) wrong(k, v, ptr, "too few entries");
+        return;
+      }
+      case Type::string_list: {
+        if (!v.is_array()) wrong(k, v, ptr);
+        std::vector<std::string> seen;
+        for (const Json& s : v) {
+          if (!s.is_string()) wrong(k, v, ptr);
+          const auto& str = s.get_ref<const std::string&>();
+          if (!k.choices.empty() && !contains(k.choices, str)) wrong(k, v, ptr, "invalid entry '" + str + "'");
+          if (contains(seen, str)) wrong(k, v, ptr, "duplicate entry '" + str + "'");
+          seen.push_back(str);
+        }
+        if (v.size() < k.min_items) wrong(k, v, ptr, "too few entries");
+        return;
+      }
+    }
+  }
+
+  // `spec` describes the object: its keys, its "type" discriminator, its key groups.
+  void object(const Key& spec, Json& obj, const std::string& ptr) const {
+    const Key* type_key = find_key(spec, "type");
+    std::string type;
+    if (type_key) {  // first, because it decides which other keys belong here
+      const std::string p = child_pointer(ptr, "type");
+      if (!obj.contains("type")) fail(p, "missing required key 'type' (expected " + expected(*type_key) + ")");
+      value(*type_key, obj["type"], p);
+      type = obj["type"].get<std::string>();
+    }
+    const auto applies = [&](const Key& k) { return k.only_for.empty() || contains(k.only_for, type); };
+
+    std::vector<std::string> all, usable;
+    for (const Key& k : spec.keys) {
+      all.push_back(k.name);
+      if (applies(k)) usable.push_back(k.name);
+    }
+    for (const auto& item : obj.items()) {
+      const std::string& name = item.key();
+      if (is_comment(name)) continue;
+      const std::string p = child_pointer(ptr, name);
+      const Key* k = find_key(spec, name);
+      if (!k) {
+        std::string guess = closest(name, usable);
+        if (guess.empty()) guess = closest(name, all);
+        if (!guess.empty()) fail(p, "unknown key '" + name + "'; did you mean '" + guess + "'?");
+        fail(p, "unknown key '" + name + "' (expected one of: " + join(usable) + ")");
+      }
+      if (!applies(*k))
+        fail(p, "key '" + name + "' is not used by " + spec.label + " type '" + type + "' (used by: " +
+                    join(k->only_for) + ")");
+    }
+
+    // Exclusive groups: which one is given (at most one), and is it complete?
+    int active = -1;
+    std::string active_key;
+    for (std::size_t g = 0; g < spec.groups.size(); ++g) {
+      for (const auto& n : spec.groups[g]) {
+        if (!obj.contains(n) || !applies(*find_key(spec, n))) continue;
+        if (active >= 0)
+          fail(child_pointer(ptr, n), "'" + active_key + "' and '" + n + "' cannot both be given (expected " +
+                                          groups_text(spec) + ")");
+        active = static_cast<int>(g);
+        active_key = n;
+        break;
+      }
+    }
+    if (active >= 0) {
+      for (const auto& n : spec.groups[static_cast<std::size_t>(active)])
+        if (!obj.contains(n) && find_key(spec, n)->default_value.is_null())
+          fail(child_pointer(ptr, n), "missing key '" + n + "', which goes with '" + active_key +
+                                          "' (expected " + groups_text(spec) + ")");
+    } else if (spec.need_group) {
+      fail(ptr, "missing keys (got " + show(obj) + "; expected " + groups_text(spec) + ")");
+    }
+
+    for (const Key& k : spec.keys) {
+      if (&k == type_key || !applies(k)) continue;
+      const std::string p = child_pointer(ptr, k.name);
+      if (obj.contains(k.name)) {
+        value(k, obj[k.name], p);
+        continue;
+      }
+      if (k.required)
+        fail(p, "missing required key '" + k.name + "'" +
+                    (k.only_for.empty() ? "" : " for " + spec.label + " type '" + type + "'") +
+                    " (expected " + expected(k) + ")");
+      if (k.default_value.is_null()) continue;
+      // A grouped key's default applies when its group is the one given, or when no group is
+      // given and every member of its group has a default (geometry: resolution 20).
+      const int g = group_of(spec, k.name);
+      if (g >= 0 && g != active && (active >= 0 || !all_defaulted(spec, static_cast<std::size_t>(g))))
+        continue;
+      obj[k.name] = k.default_value;
+      value(k, obj[k.name], p);  // fills nested defaults, turns "inf" into +∞
+    }
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& ptr, const std::string& problem) const {
+    throw SceneError(file_, ptr, problem);
+  }
+  [[noreturn]] void wrong(const Key& k, const Json& v, const std::string& ptr,
+                          const std::string& problem = "wrong type") const {
+    fail(ptr, problem + " (got " + show(v) + "; expected " + expected(k) + ")");
+  }
+
+  static bool is_numbers(const Json& v, std::size_t n) {
+    return v.is_array() && v.size() == n &&
+           std::all_of(v.begin(), v.end(), [](const Json& c) { return c.is_number(); });
+  }
+  static int group_of(const Key& spec, const std::string& name) {
+    for (std::size_t g = 0; g < spec.groups.size(); ++g)
+      if (contains(spec.groups[g], name)) return static_cast<int>(g);
+    return -1;
+  }
+  static bool all_defaulted(const Key& spec, std::size_t g) {
+    return std::all_of(spec.groups[g].begin(), spec.groups[g].end(),
+                       [&](const std::string& n) { return !find_key(spec, n)->default_value.is_null(); });
+  }
+
+  void number(const Key& k, Json& v, const std::string& ptr) const {
+    if (k.allow_inf && v.is_string()) {
+      const std::string s = lower(v.get<std::string>());
+      if (s == "inf" || s == "infinity") {
+        v = std::numeric_limits<double>::infinity();
+        return;
+      }
+    }
+    if (!v.is_number()) wrong(k, v, ptr);
+    const double x = v.get<double>();
+    if (!std::isfinite(x)) wrong(k, v, ptr, "not a finite number");  // the parser rejects 1e999; defensive
+    if (k.type == Type::integer) {
+      if (x != std::floor(x)) wrong(k, v, ptr);
+      if (x < INT_MIN || x > INT_MAX) wrong(k, v, ptr, "out of range");
+      v = static_cast<int>(x);  // 20.0 -> 20, so the converter can read an int
+    }
+    if (!in_range(k, x)) wrong(k, v, ptr, "out of range");
+  }
+
+  const std::string& file_;
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Shared helpers
+// ---------------------------------------------------------------------------------------------
+std::string join(const std::vector<std::string>& items, const std::string& separator) {
+  std::string out;
+  for (std::size_t i = 0; i < items.size(); ++i) out += (i ? separator : "") + items[i];
+  return out;
+}
+
+std::string show(const Json& value) {
+  std::string s = value.dump();
+  if (s.size() > 60) s = s.substr(0, 57) + "...";
+  return s;
+}
+
+std::string child_pointer(const std::string& pointer, const std::string& key) {
+  std::string out = pointer + "/";
+  for (char c : key) {
+    if (c == '~') out += "~0";
+    else if (c == '/') out += "~1";
+    else out += c;
+  }
+  return out;
+}
+
+std::string closest(const std::string& word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_distance = SIZE_MAX;
+  for (const auto& c : candidates) {
+    const std::size_t d = edit_distance(lower(word), lower(c));
+    if (d < best_distance) best = c, best_distance = d;
+  }
+  // Plausibly a typo: a few edits, and not a rewrite of the whole word.
+  const bool close = best_distance <= std::max<std::size_t>(2, word.size() / 3) &&
+                     best_distance < std::min(word.size(), best.size());
+  return close ? best : "";
+}
+
+const Key& scene_spec() {
+  static const Key spec = build_spec();
+  return spec;
+}
+
+void validate(Json& root, const std::string& file) {
+  const Validator v(file);
+  if (!root.is_object())
+    throw SceneError(file, "", "the scene must be a JSON object (got " + show(root) + "; expected an object)");
+  v.object(scene_spec(), root, "");
+}
+
+const std::string& example_scene() {
+  static const std::string text = R"({
+  "name": "cantilever",
+  "description": "A steel beam clamped at one end; a rubber ball drops onto it.",
+  "_comment": "keys starting with an underscore are ignored",
+  "threads": 0,
+  "gravity": [0, -9.81, 0],
+  "time": { "dt": 1e-5, "duration": 0.5, "frame_rate": 60 },
+  "model": { "normalization": "paper", "family": "mesh" },
+  "materials": {
+    "steel": { "density": 7850, "youngs_modulus": 2e11, "poisson_ratio": 0.3,
+               "yield_energy": "inf", "critical_stretch": 0.01 },
+    "rubber": { "density": 1100, "bulk_modulus": 2e7, "shear_modulus": 1e6, "damping": 5,
+                "anisotropy": { "axis": [1, 0, 0], "ratio_along": 2 } }
+  },
+  "bodies": [
+    { "name": "beam", "material": "steel",
+      "geometry": { "type": "box", "size": [1.0, 0.1, 0.1], "resolution": 40 },
+      "transform": { "translate": [0, 0.5, 0] } },
+    { "name": "ball", "material": "rubber",
+      "geometry": { "type": "sphere", "radius": 0.05, "edge_length": 0.01 },
+      "transform": { "translate": [0.4, 0.7, 0], "rotate": { "axis": [0, 0, 1], "degrees": 30 } },
+      "velocity": [0, -1, 0], "horizon": { "factor": 1.6 } }
+  ],
+  "boundary_conditions": [
+    { "type": "anchor",
+      "region": { "type": "box", "min": [-0.6, 0.4, -0.1], "max": [-0.45, 0.6, 0.1], "body": "beam" } },
+    { "type": "velocity", "start": 0.1, "ramp": 0.05, "end": 0.3, "velocity": [0, -0.1, 0],
+      "region": { "type": "halfspace", "point": [0.45, 0, 0], "normal": [1, 0, 0], "body": "beam" } }
+  ],
+  "colliders": [
+    { "type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "friction": 0.5 }
+  ],
+  "output": { "directory": "out/cantilever", "formats": ["vtu", "ply"], "fields": [] }
+}
+)";
+  return text;
+}
+
+}  // namespace perifx::scene::detail
+
+// ---------------------------------------------------------------------------------------------
+// Markdown reference
+// ---------------------------------------------------------------------------------------------
+namespace perifx::scene {
+namespace {
+
+using detail::Json;
+using detail::Key;
+using detail::Type;
+
+std::string cell(std::string s) {  // a table cell cannot hold a raw '|'
+  std::string out;
+  for (char c : s) out += c == '|' ? std::string("\\|") : std::string(1, c);
+  return out;
+}
+
+bool has_children(const Key& k) {
+  return k.type == Type::object || k.type == Type::map || k.type == Type::array ||
+         k.type == Type::number_or_object;
+}
+
+void rows(std::ostringstream& md, const Key& k, const std::string& path) {
+  std::string def = "—";
+  if (k.required) def = "**required**";
+  else if (!k.default_doc.empty()) def = k.default_doc;
+  else if (!k.default_value.is_null()) def = "`" + k.default_value.dump() + "`";
+
+  std::string doc;
+  if (!k.only_for.empty()) doc += "*Only for type " + detail::join(k.only_for, ", ") + ".* ";
+  doc += k.doc;
+  if (!k.groups.empty()) {
+    const std::string whose = k.type == Type::map || k.type == Type::array ? "Each " + k.label + ": give "
+                              : k.type == Type::number_or_object      ? "As an object, give "
+                                                                      : "Give ";
+    doc += " " + whose + (k.need_group ? "exactly one of " : "at most one of ") + detail::groups_list(k) + ".";
+  }
+  md << "| `" << path << "` | " << cell(detail::expected(k)) << " | " << cell(def) << " | " << cell(doc)
+     << " |\n";
+
+  if (!has_children(k)) return;
+  const std::string base =
+      path + (k.type == Type::map ? "/<name>" : k.type == Type::array ? "/<k>" : "");
+  for (const Key& c : k.keys) rows(md, c, base + "/" + c.name);
+}
+
+void table_header(std::ostringstream& md) {
+  md << "| Key | Expected | Default | Meaning |\n|---|---|---|---|\n";
+}
+
+}  // namespace
+
+std::string scene_format_markdown() {
+  std::ostringstream md;
+  md << R"(# Scene format
+
+<!-- Generated by perifx::scene::scene_format_markdown() from the spec table in
+     engine/scene/schema.cpp (`perifx spec` prints it). Do not edit: a test checks this file
+     against the code. -->
+
+A scene is one JSON object. Keys are listed below as JSON pointers: `<name>` stands for a
+material name, `<k>` for an array index.
+
+- **Units**: SI throughout (m, kg, s, Pa); angular velocities in rad/s; the only angles, the
+  `degrees` keys, are in degrees. **Y is up.**
+- **Vectors** are arrays of 3 finite numbers `[x, y, z]`; matrices are arrays of 3 rows.
+- **Infinity**: JSON has no `Infinity`. Keys that accept infinity take the string `"inf"` (or
+  `"infinity"`, any letter case); omitting them gives their default, which is `"inf"`.
+- **Comments**: JSON has none. Any key that starts with `_` (e.g. `"_comment"`) is ignored at every
+  level, including in `materials`, so material names cannot start with `_`. The top-level
+  `description` is free text, also ignored.
+- **Strictness**: unknown keys are errors (with a suggestion when it looks like a typo), and so
+  are keys that belong to another `type` (e.g. `radius` on a box), duplicate keys in one object,
+  and non-finite numbers. Keys marked *Only for type ...* apply when the enclosing object's
+  `type` is one of those.
+- **Key groups**: "give exactly/at most one of" lists alternatives that cannot be mixed; a group
+  that is given must be complete, except members with a default.
+- **Paths**: `/bodies/<k>/geometry/path` is relative to the scene file's folder;
+  `/output/directory` is relative to the current working directory.
+- **Errors** are one line: `<file>: <json pointer>: <problem> (got <value>; expected <what>)`;
+  malformed JSON is reported with its line and column.
+
+## Example
+
+```json
+)" << detail::example_scene()
+     << "```\n";
+
+  const Key& root = detail::scene_spec();
+  md << "\n## Top level\n\n";
+  table_header(md);
+  for (const Key& k : root.keys)
+    if (!has_children(k)) rows(md, k, "/" + k.name);
+  for (const Key& k : root.keys) {
+    if (!has_children(k)) continue;
+    md << "\n## " << k.name << "\n\n";
+    table_header(md);
+    rows(md, k, "/" + k.name);
+  }
+  return md.str();
+}
+
+}  // namespace perifx::scene
