@@ -1,0 +1,368 @@
+// Built-in structured meshers: a Freudenthal (Kuhn) grid for boxes, and carved + surface-snapped
+// grids for spheres and cylinders.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>  // cross(); components/math.hpp only brings in Eigen/Core
+
+#include "geometry/geometry.hpp"
+
+namespace perifx::geometry {
+
+namespace {
+
+using Tet = std::array<std::uint32_t, 4>;
+
+// Keeps the mesh addressable with 32-bit vertex indices and 32-bit face ids (tet * 4 + k), and
+// refuses requests that would need tens of GB before trying to allocate them.
+constexpr std::uint64_t kMaxTets = 1ull << 29;
+
+std::size_t cells_along(double length, double cell, const char* what) {
+  const double n = std::max(1.0, std::round(length / cell));
+  if (!(n <= static_cast<double>(kMaxTets))) {
+    throw GeometryError(std::string(what) + ": cell " + std::to_string(cell) + " is far too small for length " +
+                        std::to_string(length));
+  }
+  return static_cast<std::size_t>(n);
+}
+
+void require_positive(double x, const char* what, const char* name) {
+  if (!(std::isfinite(x) && x > 0.0)) {
+    throw GeometryError(std::string(what) + ": " + name + " must be positive and finite, got " +
+                        std::to_string(x));
+  }
+}
+
+// A grid of n[0] x n[1] x n[2] cubes spanning `size`, centered at the origin, each cube split into the
+// 6 Freudenthal tets: for every permutation (a, b, c) of the axes, the path corner -> +e_a -> +e_b
+// -> +e_c. All six share the cube's main diagonal, and because every cube uses the same diagonal
+// direction the split of each shared square face (along its (+,+) diagonal) agrees on both sides, so
+// the mesh is conforming.
+TetMesh freudenthal_grid(const Vec3& size, const std::array<std::size_t, 3>& n, const char* what) {
+  // In double: each n may be up to 2^29, so the integer product could overflow.
+  const double cells = static_cast<double>(n[0]) * static_cast<double>(n[1]) * static_cast<double>(n[2]);
+  if (cells > static_cast<double>(kMaxTets / 6)) {
+    throw GeometryError(std::string(what) + ": " + std::to_string(cells) +
+                        " grid cells is too many (the cell size is too small for the body)");
+  }
+  const auto cubes = static_cast<std::size_t>(cells);
+  const std::size_t sx = n[0] + 1, sy = n[1] + 1, sz = n[2] + 1;
+  TetMesh mesh;
+  mesh.vertices.resize(sx * sy * sz);
+  // (i / n − 1/2) * size: the end planes land exactly on ±size/2 (i = 0 and i = n are exact), which the
+  // cylinder relies on to recognize its caps.
+  auto coord = [&](int axis, std::size_t i) {
+    return (static_cast<double>(i) / static_cast<double>(n[static_cast<std::size_t>(axis)]) - 0.5) * size[axis];
+  };
+  for (std::size_t k = 0; k < sz; ++k) {
+    for (std::size_t j = 0; j < sy; ++j) {
+      for (std::size_t i = 0; i < sx; ++i) {
+        mesh.vertices[i + sx * (j + sy * k)] = Vec3(coord(0, i), coord(1, j), coord(2, k));
+      }
+    }
+  }
+
+  // Vertex-index step for a unit move along each axis.
+  const std::uint32_t step[3] = {1u, static_cast<std::uint32_t>(sx), static_cast<std::uint32_t>(sx * sy)};
+  // The six axis permutations and their parity. det(e_a, e_b, e_c) = sign of the permutation, so the
+  // odd ones get their last two vertices swapped to come out positively oriented.
+  static constexpr int kPerm[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {2, 1, 0}, {1, 0, 2}};
+  static constexpr bool kOdd[6] = {false, false, false, true, true, true};
+  mesh.tets.reserve(6 * cubes);
+  for (std::size_t k = 0; k < n[2]; ++k) {
+    for (std::size_t j = 0; j < n[1]; ++j) {
+      for (std::size_t i = 0; i < n[0]; ++i) {
+        const auto v0 = static_cast<std::uint32_t>(i + sx * (j + sy * k));
+        for (int p = 0; p < 6; ++p) {
+          const std::uint32_t v1 = v0 + step[kPerm[p][0]];
+          const std::uint32_t v2 = v1 + step[kPerm[p][1]];
+          const std::uint32_t v3 = v2 + step[kPerm[p][2]];
+          mesh.tets.push_back(kOdd[p] ? Tet{v0, v1, v3, v2} : Tet{v0, v1, v2, v3});
+        }
+      }
+    }
+  }
+  return mesh;
+}
+
+// A curved body for carve_and_snap: the inside test, which boundary faces belong to the curved
+// surface (as opposed to exact flat grid planes such as a cylinder's caps), and the closest point
+// on that surface (false where it is not unique).
+struct CurvedShape {
+  std::function<bool(const Vec3&)> inside;
+  std::function<bool(const Vec3&, const Vec3&, const Vec3&)> curved_face;
+  std::function<bool(const Vec3&, Vec3&)> project;
+};
+
+using Neighbors = std::vector<std::array<std::int32_t, 4>>;
+
+// The three vertices of tet t other than local vertex k.
+std::array<std::uint32_t, 3> face_vertices(const Tet& tet, int k) {
+  std::array<std::uint32_t, 3> f{};
+  std::size_t n = 0;
+  for (int i = 0; i < 4; ++i) {
+    if (i != k) f[n++] = tet[static_cast<std::size_t>(i)];
+  }
+  return f;
+}
+
+bool is_curved_face(const TetMesh& mesh, const Tet& tet, int k, const CurvedShape& shape) {
+  const auto f = face_vertices(tet, k);
+  return shape.curved_face(mesh.vertices[f[0]], mesh.vertices[f[1]], mesh.vertices[f[2]]);
+}
+
+// Keeps the largest face-connected group of tets: a tet hanging on by an edge or a vertex shares no
+// face with the body, carries no load in the physics and would just be a loose fragment. Ties go to
+// the group found first, which keeps the result deterministic.
+void keep_largest_component(TetMesh& mesh) {
+  const Neighbors neighbors = face_neighbors(mesh);
+  const std::size_t nt = mesh.tets.size();
+  std::vector<std::int32_t> component(nt, -1);
+  std::vector<std::size_t> component_size;
+  std::vector<std::uint32_t> stack;
+  for (std::size_t seed = 0; seed < nt; ++seed) {
+    if (component[seed] >= 0) continue;
+    const auto id = static_cast<std::int32_t>(component_size.size());
+    std::size_t count = 0;
+    component[seed] = id;
+    stack.assign(1, static_cast<std::uint32_t>(seed));
+    while (!stack.empty()) {
+      const std::uint32_t t = stack.back();
+      stack.pop_back();
+      ++count;
+      for (std::int32_t nb : neighbors[t]) {
+        if (nb >= 0 && component[static_cast<std::size_t>(nb)] < 0) {
+          component[static_cast<std::size_t>(nb)] = id;
+          stack.push_back(static_cast<std::uint32_t>(nb));
+        }
+      }
+    }
+    component_size.push_back(count);
+  }
+  if (component_size.size() <= 1) return;
+  const auto best = static_cast<std::int32_t>(
+      std::max_element(component_size.begin(), component_size.end()) - component_size.begin());
+  std::size_t out = 0;
+  for (std::size_t t = 0; t < nt; ++t) {
+    if (component[t] == best) mesh.tets[out++] = mesh.tets[t];
+  }
+  mesh.tets.resize(out);
+}
+
+// Drops vertices no tet uses and renumbers, keeping the grid's vertex order.
+void drop_unused_vertices(TetMesh& mesh) {
+  constexpr std::uint32_t kUnused = std::numeric_limits<std::uint32_t>::max();
+  std::vector<std::uint32_t> remap(mesh.vertices.size(), kUnused);
+  for (const auto& tet : mesh.tets) {
+    for (std::uint32_t v : tet) remap[v] = 0;
+  }
+  std::uint32_t next = 0;
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
+    if (remap[v] == kUnused) continue;
+    remap[v] = next;
+    mesh.vertices[next++] = mesh.vertices[v];
+  }
+  mesh.vertices.resize(next);
+  for (auto& tet : mesh.tets) {
+    for (auto& v : tet) v = remap[v];
+  }
+}
+
+// Moves the vertices of curved boundary faces onto the true surface without inverting or flattening
+// any tet: no tet may end below kMinVolumeRatio of its grid volume.
+//
+// Everything is decided from the original positions (Jacobi style), so the result does not depend
+// on the order in which vertices are visited. All vertices first aim for the full step onto the
+// surface, applied together (neighbors on one surface patch move coherently, so testing them one
+// at a time would be needlessly pessimistic). Then, while some tet is below the ratio, the step of
+// every moving vertex of every such tet is halved (and dropped once small). This terminates: an
+// offending tet always has a moving vertex, steps only shrink, and with nothing moving every tet is
+// at 100%.
+void snap_to_surface(TetMesh& mesh, const CurvedShape& shape) {
+  constexpr double kMinVolumeRatio = 0.2;
+  const std::size_t nv = mesh.vertices.size();
+  const std::size_t nt = mesh.tets.size();
+
+  const Neighbors neighbors = face_neighbors(mesh);
+  std::vector<char> on_surface(nv, 0);
+  for (std::size_t t = 0; t < nt; ++t) {
+    for (int k = 0; k < 4; ++k) {
+      if (neighbors[t][static_cast<std::size_t>(k)] >= 0 || !is_curved_face(mesh, mesh.tets[t], k, shape)) continue;
+      for (std::uint32_t v : face_vertices(mesh.tets[t], k)) on_surface[v] = 1;
+    }
+  }
+  const std::vector<Vec3> original = mesh.vertices;
+  std::vector<Vec3> delta(nv, Vec3::Zero());
+  std::vector<double> step(nv, 0.0);
+  for (std::size_t v = 0; v < nv; ++v) {
+    Vec3 target;
+    if (on_surface[v] && shape.project(original[v], target)) {
+      delta[v] = target - original[v];
+      step[v] = 1.0;
+    }
+  }
+  std::vector<double> original_volume(nt);
+  for (std::size_t t = 0; t < nt; ++t) original_volume[t] = tet_volume(mesh, t);
+
+  std::vector<char> shrink(nv, 0);
+  for (;;) {
+    for (std::size_t v = 0; v < nv; ++v) mesh.vertices[v] = original[v] + step[v] * delta[v];
+    std::fill(shrink.begin(), shrink.end(), 0);
+    bool any = false;
+    for (std::size_t t = 0; t < nt; ++t) {
+      if (tet_volume(mesh, t) >= kMinVolumeRatio * original_volume[t]) continue;
+      for (std::uint32_t v : mesh.tets[t]) {
+        if (step[v] > 0.0) {
+          shrink[v] = 1;
+          any = true;
+        }
+      }
+    }
+    if (!any) break;
+    for (std::size_t v = 0; v < nv; ++v) {
+      if (shrink[v]) step[v] = step[v] > 0.2 ? 0.5 * step[v] : 0.0;
+    }
+  }
+}
+
+// Sphere/cylinder mesher: the grid tets whose barycenter is inside, cleaned up, then snapped.
+//
+// The carved staircase has convex "ridge" tets with two or more faces on the curved boundary. All
+// four of their vertices are surface vertices, so projecting them onto a smooth surface flattens
+// them, and the snap would have to hold back every vertex they touch, leaving a jagged surface.
+// They are peeled off (all at once per pass, so the result is order-independent) until none are
+// left; a pass exposes a few new ones, and on these convex shapes it settles in 2–3 passes. The
+// volume they held is mostly recovered by the snap pushing the new surface outward.
+TetMesh carve_and_snap(const TetMesh& grid, const CurvedShape& shape, const char* what) {
+  TetMesh mesh;
+  mesh.vertices = grid.vertices;
+  mesh.tets.reserve(grid.tets.size());
+  for (std::size_t t = 0; t < grid.tets.size(); ++t) {
+    if (shape.inside(tet_barycenter(grid, t))) mesh.tets.push_back(grid.tets[t]);
+  }
+
+  constexpr int kMaxPeelPasses = 8;  // a safety bound; convex shapes need far fewer
+  const std::size_t carved = mesh.tets.size();
+  for (int pass = 0; pass < kMaxPeelPasses && !mesh.tets.empty(); ++pass) {
+    const Neighbors neighbors = face_neighbors(mesh);
+    std::vector<char> ridge(mesh.tets.size(), 0);
+    std::size_t kept = 0;
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+      int curved_boundary_faces = 0;
+      for (int k = 0; k < 4; ++k) {
+        if (neighbors[t][static_cast<std::size_t>(k)] < 0 && is_curved_face(mesh, mesh.tets[t], k, shape)) {
+          ++curved_boundary_faces;
+        }
+      }
+      ridge[t] = curved_boundary_faces >= 2;
+      kept += ridge[t] ? 0 : 1;
+    }
+    // The ridge fraction grows as the grid coarsens (~5% of the tets at 20 cells per diameter, ~11%
+    // at 10). On a very coarse grid peeling would eat the body, so it stops before the total
+    // removed would pass kMaxPeeled of the carved tets, keeping the staircase there instead.
+    constexpr double kMaxPeeled = 0.15;
+    if (kept == mesh.tets.size() ||
+        static_cast<double>(carved - kept) > kMaxPeeled * static_cast<double>(carved)) {
+      break;
+    }
+    std::size_t out = 0;
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+      if (!ridge[t]) mesh.tets[out++] = mesh.tets[t];
+    }
+    mesh.tets.resize(out);
+  }
+  if (mesh.tets.empty()) {
+    throw GeometryError(std::string(what) + ": the cell size is too coarse to mesh the body");
+  }
+
+  keep_largest_component(mesh);
+  drop_unused_vertices(mesh);
+  snap_to_surface(mesh, shape);
+  return mesh;
+}
+
+}  // namespace
+
+TetMesh mesh_box(const Vec3& size, double cell) {
+  require_positive(size.x(), "mesh_box", "size.x");
+  require_positive(size.y(), "mesh_box", "size.y");
+  require_positive(size.z(), "mesh_box", "size.z");
+  require_positive(cell, "mesh_box", "cell");
+  const std::array<std::size_t, 3> n = {cells_along(size.x(), cell, "mesh_box"),
+                                        cells_along(size.y(), cell, "mesh_box"),
+                                        cells_along(size.z(), cell, "mesh_box")};
+  return freudenthal_grid(size, n, "mesh_box");
+}
+
+TetMesh mesh_sphere(double radius, double cell) {
+  require_positive(radius, "mesh_sphere", "radius");
+  require_positive(cell, "mesh_sphere", "cell");
+  const double diameter = 2.0 * radius;
+  const std::size_t n = cells_along(diameter, cell, "mesh_sphere");
+  const TetMesh grid = freudenthal_grid(Vec3::Constant(diameter), {n, n, n}, "mesh_sphere");
+
+  const double r2 = radius * radius;
+  const double tiny = 1e-12 * radius;
+  CurvedShape sphere;
+  sphere.inside = [r2](const Vec3& b) { return b.squaredNorm() <= r2; };
+  sphere.curved_face = [](const Vec3&, const Vec3&, const Vec3&) { return true; };
+  sphere.project = [radius, tiny](const Vec3& p, Vec3& target) {
+    const double d = p.norm();
+    if (d <= tiny) return false;  // the center has no unique closest surface point
+    target = (radius / d) * p;
+    return true;
+  };
+  return carve_and_snap(grid, sphere, "mesh_sphere");
+}
+
+TetMesh mesh_cylinder(double radius, double height, int axis, double cell) {
+  require_positive(radius, "mesh_cylinder", "radius");
+  require_positive(height, "mesh_cylinder", "height");
+  require_positive(cell, "mesh_cylinder", "cell");
+  if (axis < 0 || axis > 2) {
+    throw GeometryError("mesh_cylinder: axis must be 0, 1 or 2, got " + std::to_string(axis));
+  }
+  const double diameter = 2.0 * radius;
+  Vec3 size = Vec3::Constant(diameter);
+  size[axis] = height;
+  std::array<std::size_t, 3> n{};
+  for (int a = 0; a < 3; ++a) {
+    n[static_cast<std::size_t>(a)] = cells_along(size[a], cell, "mesh_cylinder");
+  }
+  const TetMesh grid = freudenthal_grid(size, n, "mesh_cylinder");
+
+  auto radial = [axis](const Vec3& p) {
+    Vec3 r = p;
+    r[axis] = 0.0;
+    return r;
+  };
+  // The grid spans the height exactly, so only the radial test carves and the caps are the grid's
+  // end planes, already exact. A boundary face lying in a cap plane must not pull its vertices
+  // radially; every other boundary face is on the side. A rim vertex (on both) moves radially
+  // within its cap. The end-plane coordinates are computed exactly as freudenthal_grid computes them.
+  const double cap_lo = -0.5 * height, cap_hi = 0.5 * height;
+  const double r2 = radius * radius;
+  const double tiny = 1e-12 * radius;
+  CurvedShape cylinder;
+  cylinder.inside = [=](const Vec3& b) { return radial(b).squaredNorm() <= r2; };
+  cylinder.curved_face = [=](const Vec3& p0, const Vec3& p1, const Vec3& p2) {
+    const double w = p0[axis];
+    const bool cap = w == p1[axis] && w == p2[axis] && (w == cap_lo || w == cap_hi);
+    return !cap;
+  };
+  cylinder.project = [=](const Vec3& p, Vec3& target) {
+    const Vec3 r = radial(p);
+    const double d = r.norm();
+    if (d <= tiny) return false;  // on the axis: no unique closest side point
+    target = p + (radius / d - 1.0) * r;
+    return true;
+  };
+  return carve_and_snap(grid, cylinder, "mesh_cylinder");
+}
+
+}  // namespace perifx::geometry

@@ -1,0 +1,207 @@
+// TetGen .node/.ele input. Errors name the file and line so a user can fix a hand-edited or truncated
+// file without a debugger.
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <vector>
+
+#include <Eigen/Geometry>  // cross(); components/math.hpp only brings in Eigen/Core
+
+#include "geometry/geometry.hpp"
+
+namespace perifx::geometry {
+
+namespace {
+
+// Walks a whole file's text line by line, yielding the whitespace-separated tokens of each
+// non-empty line ('#' starts a comment that runs to the end of the line).
+class TokenLines {
+ public:
+  TokenLines(const std::filesystem::path& path, const char* kind) : name_(path.string()) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw GeometryError("cannot open TetGen " + std::string(kind) + " file '" + name_ + "'");
+    text_.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    if (in.bad()) throw GeometryError("error reading '" + name_ + "'");
+  }
+
+  // Next line that has at least one token; false at end of file.
+  bool next(std::vector<std::string_view>& tokens) {
+    while (pos_ < text_.size()) {
+      std::size_t end = text_.find('\n', pos_);
+      if (end == std::string::npos) end = text_.size();
+      std::string_view line(text_.data() + pos_, end - pos_);
+      pos_ = end + 1;
+      ++line_;
+      if (const auto hash = line.find('#'); hash != std::string_view::npos) line = line.substr(0, hash);
+      tokens.clear();
+      std::size_t i = 0;
+      while (i < line.size()) {
+        while (i < line.size() && is_space(line[i])) ++i;
+        std::size_t j = i;
+        while (j < line.size() && !is_space(line[j])) ++j;
+        if (j > i) tokens.push_back(line.substr(i, j - i));
+        i = j;
+      }
+      if (!tokens.empty()) return true;
+    }
+    return false;
+  }
+
+  // "file:line: message" for the line last returned by next().
+  [[noreturn]] void fail(const std::string& message) const {
+    throw GeometryError(name_ + ":" + std::to_string(line_) + ": " + message);
+  }
+  [[noreturn]] void fail_truncated(const std::string& what) const {
+    throw GeometryError(name_ + ":" + std::to_string(line_) + ": file is truncated: " + what);
+  }
+
+  long long integer(std::string_view token, const char* what) const {
+    long long value = 0;
+    const auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
+    if (ec != std::errc() || ptr != token.data() + token.size()) {
+      fail("bad " + std::string(what) + " '" + std::string(token) + "' (expected an integer)");
+    }
+    return value;
+  }
+
+  double real(std::string_view token, const char* what) const {
+    // from_chars does not accept a leading '+', which some writers emit.
+    std::string_view t = token;
+    if (!t.empty() && t.front() == '+') t.remove_prefix(1);
+    double value = 0.0;
+    const auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), value);
+    if (ec != std::errc() || ptr != t.data() + t.size() || !std::isfinite(value)) {
+      fail("bad " + std::string(what) + " '" + std::string(token) + "' (expected a finite number)");
+    }
+    return value;
+  }
+
+  std::size_t line() const { return line_; }
+
+ private:
+  static bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+  std::string name_;
+  std::string text_;
+  std::size_t pos_ = 0;
+  std::size_t line_ = 0;
+};
+
+// The .ele beside a .node: "mesh.1.node" -> "mesh.1.ele".
+std::filesystem::path ele_path_for(const std::filesystem::path& node_file) {
+  std::filesystem::path ele = node_file;
+  if (ele.extension() == ".node") {
+    ele.replace_extension(".ele");
+  } else {
+    ele += ".ele";
+  }
+  return ele;
+}
+
+}  // namespace
+
+TetMesh read_tetgen(const std::filesystem::path& node_file) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(node_file, ec)) {
+    throw GeometryError("TetGen node file '" + node_file.string() + "' does not exist");
+  }
+  const std::filesystem::path ele_file = ele_path_for(node_file);
+  if (!std::filesystem::is_regular_file(ele_file, ec)) {
+    throw GeometryError("TetGen element file '" + ele_file.string() + "' (expected beside '" +
+                        node_file.string() + "') does not exist");
+  }
+
+  TetMesh mesh;
+  std::vector<std::string_view> tok;
+
+  // --- .node: header "<#points> <dim> <#attributes> <#boundary markers>" ---
+  TokenLines node(node_file, "node");
+  if (!node.next(tok)) node.fail_truncated("missing the header line");
+  const long long npoints = node.integer(tok[0], "point count");
+  if (npoints < 0 || npoints > static_cast<long long>(UINT32_MAX)) {
+    node.fail("point count " + std::to_string(npoints) + " is out of range");
+  }
+  if (tok.size() >= 2) {
+    const long long dim = node.integer(tok[1], "dimension");
+    if (dim != 3) node.fail("dimension is " + std::to_string(dim) + "; only 3-D meshes are supported");
+  }
+  mesh.vertices.resize(static_cast<std::size_t>(npoints));
+  long long base = 0;  // 0 or 1, taken from the first point's index
+  for (long long k = 0; k < npoints; ++k) {
+    if (!node.next(tok)) {
+      node.fail_truncated("expected " + std::to_string(npoints) + " points, found " + std::to_string(k));
+    }
+    if (tok.size() < 4) node.fail("a point line needs '<index> x y z', found " + std::to_string(tok.size()) + " fields");
+    const long long index = node.integer(tok[0], "point index");
+    if (k == 0) {
+      if (index != 0 && index != 1) node.fail("first point index is " + std::to_string(index) + "; expected 0 or 1");
+      base = index;
+    } else if (index != base + k) {
+      // Point indices are positions in the list; a gap or repeat would silently shift every tet.
+      node.fail("point index " + std::to_string(index) + " out of sequence (expected " + std::to_string(base + k) + ")");
+    }
+    mesh.vertices[static_cast<std::size_t>(k)] =
+        Vec3(node.real(tok[1], "x coordinate"), node.real(tok[2], "y coordinate"), node.real(tok[3], "z coordinate"));
+  }
+
+  // --- .ele: header "<#tets> <nodes per tet> <#attributes>" ---
+  TokenLines ele(ele_file, "element");
+  if (!ele.next(tok)) ele.fail_truncated("missing the header line");
+  const long long ntets = ele.integer(tok[0], "tet count");
+  if (ntets < 0 || ntets > static_cast<long long>(UINT32_MAX / 4)) {
+    ele.fail("tet count " + std::to_string(ntets) + " is out of range");
+  }
+  long long per_tet = 4;
+  if (tok.size() >= 2) per_tet = ele.integer(tok[1], "nodes per tet");
+  if (per_tet != 4 && per_tet != 10) {
+    ele.fail("nodes per tet is " + std::to_string(per_tet) + "; expected 4 or 10");
+  }
+  mesh.tets.resize(static_cast<std::size_t>(ntets));
+  for (long long k = 0; k < ntets; ++k) {
+    if (!ele.next(tok)) {
+      ele.fail_truncated("expected " + std::to_string(ntets) + " tets, found " + std::to_string(k));
+    }
+    if (static_cast<long long>(tok.size()) < 1 + per_tet) {
+      ele.fail("a tet line needs '<index>' and " + std::to_string(per_tet) + " point indices, found " +
+               std::to_string(tok.size()) + " fields");
+    }
+    const std::string_view tet_index = tok[0];
+    ele.integer(tet_index, "tet index");
+    std::array<std::uint32_t, 4> tet{};
+    // Only the corners: the 6 mid-edge nodes of a quadratic tet are not used by the model.
+    for (std::size_t i = 0; i < 4; ++i) {
+      const long long v = ele.integer(tok[1 + i], "point index") - base;
+      if (v < 0 || v >= npoints) {
+        ele.fail("tet " + std::string(tet_index) + ": point index " + std::string(tok[1 + i]) +
+                 " is out of range (points are " + std::to_string(base) + ".." + std::to_string(base + npoints - 1) + ")");
+      }
+      tet[i] = static_cast<std::uint32_t>(v);
+    }
+
+    const Vec3& p0 = mesh.vertices[tet[0]];
+    const Vec3& p1 = mesh.vertices[tet[1]];
+    const Vec3& p2 = mesh.vertices[tet[2]];
+    const Vec3& p3 = mesh.vertices[tet[3]];
+    const double volume = (p1 - p0).dot((p2 - p0).cross(p3 - p0)) / 6.0;
+    const double mean_edge = ((p1 - p0).norm() + (p2 - p0).norm() + (p3 - p0).norm() + (p2 - p1).norm() +
+                              (p3 - p1).norm() + (p3 - p2).norm()) / 6.0;
+    // Scale-free flatness test against the tet's own size, so a small but well-shaped tet is fine.
+    if (std::abs(volume) <= 1e-12 * mean_edge * mean_edge * mean_edge) {
+      std::ostringstream msg;
+      msg << "tet " << tet_index << " is degenerate (volume " << volume << ", mean edge " << mean_edge << ")";
+      ele.fail(msg.str());
+    }
+    // TetGen writes positive tets, but other writers use the opposite convention; flipping is lossless.
+    if (volume < 0.0) std::swap(tet[2], tet[3]);
+    mesh.tets[static_cast<std::size_t>(k)] = tet;
+  }
+  return mesh;
+}
+
+}  // namespace perifx::geometry
