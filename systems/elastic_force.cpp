@@ -12,9 +12,9 @@
 namespace perifx::systems {
 namespace {
 
-// Visits every alive bond i→j of particle i with its paired scalar
-//   s_ij = ½ (A_ij + A_ji) / |y_j − y_i|,  so the pair force density is s_ij (y_j − y_i).
-// One definition serves the force and the virial stress, so they can never disagree.
+// Visits every alive bond i→j of particle i with A_ij, A_ji and 1/|y_j − y_i|; the paired force
+// density of the bond is ½ (A_ij + A_ji) (y_j − y_i)/|y_j − y_i|. One definition serves the force
+// and the stress, so they can never disagree.
 template <bool kAnisotropic, bool kPlastic, class Sink>
 inline void visit_bonds(const WorldState& w, const std::vector<Vec3>& y, const std::vector<double>& coupling,
                         std::size_t i, Sink&& sink) {
@@ -46,7 +46,7 @@ inline void visit_bonds(const WorldState& w, const std::vector<Vec3>& y, const s
     }
     const double a_ij = w_ij * (lambda * p_i + b4_i * e_ij);
     const double a_ji = w_ji * (lambda * coupling[j] + b4[j] * e_ji);
-    sink(k, j, 0.5 * (a_ij + a_ji) * inv_len, dy);
+    sink(j, a_ij, a_ji, inv_len, dy);
   }
 }
 
@@ -70,7 +70,9 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y, con
     parallel_for_each(w.particles.count(), [&](std::size_t i) {
       Vec3 f = Vec3::Zero();
       visit_bonds<decltype(aniso)::value, decltype(plastic)::value>(
-          w, y, coupling, i, [&](std::uint32_t, std::uint32_t j, double s, const Vec3& dy) { f += (s * volume[j]) * dy; });
+          w, y, coupling, i, [&](std::uint32_t j, double a_ij, double a_ji, double inv_len, const Vec3& dy) {
+            f += (0.5 * (a_ij + a_ji) * inv_len * volume[j]) * dy;
+          });
       force[i] = volume[i] * f;
     }, 256);
   });
@@ -85,8 +87,8 @@ void compute_virial_stress(const WorldState& w, const std::vector<Vec3>& y, cons
     parallel_for_each(w.particles.count(), [&](std::size_t i) {
       Mat3 s_i = Mat3::Zero();
       visit_bonds<decltype(aniso)::value, decltype(plastic)::value>(
-          w, y, coupling, i, [&](std::uint32_t, std::uint32_t j, double s, const Vec3& dy) {
-            s_i += (0.5 * s * volume[j]) * dy * (x[j] - x[i]).transpose();
+          w, y, coupling, i, [&](std::uint32_t j, double a_ij, double, double inv_len, const Vec3& dy) {
+            s_i += (0.5 * a_ij * inv_len * volume[j]) * dy * (x[j] - x[i]).transpose();
           });
       stress[i] = s_i;
     }, 256);

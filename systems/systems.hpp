@@ -27,8 +27,9 @@ void compute_dilatation(const WorldState& world, const std::vector<Vec3>& y, std
 // Internal force on every particle (Eq 2–4, 8–10/12, paired as in notes.md), N.
 void compute_internal_force(const WorldState& world, const std::vector<Vec3>& y,
                             const std::vector<double>& coupling, std::vector<Vec3>& force);
-// Virial (Cauchy-like) stress per particle, σ_i = ½ Σ_j f_ij ⊗ ξ_ij V_j with f_ij the paired force
-// density of the bond (notes.md); Pa.
+// Virial stress per particle from its own force state (the state-based stress σ = ∫ T⟨ξ⟩ ⊗ ξ dV):
+// σ_i = ½ Σ_j A_ij n_ij ⊗ ξ_ij V_j, Pa. (Using the paired ½(A_ij + A_ji) instead would mix in the
+// neighbours' constants, which differ between the lattice's tet types.)
 void compute_virial_stress(const WorldState& world, const std::vector<Vec3>& y,
                            const std::vector<double>& coupling, std::vector<Mat3>& stress);
 

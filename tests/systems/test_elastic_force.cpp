@@ -85,11 +85,14 @@ TEST_CASE("discrete normalization: theta = 3 eps everywhere, virial stress 3 kap
 
   const double gamma = 1e-4;
   const auto shear = test::evaluate(world, mapped(world, [&](const Vec3& x) { return Vec3(x + Vec3(gamma * x.y(), 0, 0)); }), true);
-  double worst_shear = 0.0;
+  double worst_shear = 0.0, mean_shear = 0.0, mean_theta = 0.0;
   for (auto i : inside) {
     const double s = 0.5 * (shear.stress[i](0, 1) + shear.stress[i](1, 0));
     worst_shear = std::max(worst_shear, std::abs(s - kMu * gamma) / (kMu * gamma));
+    mean_shear += s / (kMu * gamma) / double(inside.size());
+    mean_theta += std::abs(shear.theta[i]) / gamma / double(inside.size());
   }
+  MESSAGE("mean shear ratio " << mean_shear << " mean |theta|/gamma under shear " << mean_theta);
   CHECK(worst_shear < 0.03);
   MESSAGE("discrete normalization: theta error " << worst_theta << ", pressure error " << worst_pressure
                                                  << ", shear error " << worst_shear << " over " << inside.size()
