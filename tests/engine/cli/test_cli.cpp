@@ -1,0 +1,146 @@
+// The perifx command line as a user meets it: exit codes, messages, and byte-identical output for
+// any thread count.
+#include <doctest/doctest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int code;
+  std::string output;
+};
+
+Result run(const std::string& args) {
+  const std::string cmd = std::string(PERIFX_CLI) + " " + args + " 2>&1";
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  REQUIRE(pipe != nullptr);
+  std::string out;
+  std::array<char, 4096> buf;
+  while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
+  const int status = ::pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("perifx_cli_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+fs::path write(const fs::path& dir, const std::string& name, const std::string& text) {
+  std::ofstream(dir / name) << text;
+  return dir / name;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+const char* kScene = R"({
+  "time": { "dt": 1e-4, "duration": 0.02, "frame_rate": 200 },
+  "materials": { "gel": { "density": 1000, "youngs_modulus": 1e6, "poisson_ratio": 0.3 } },
+  "bodies": [ { "material": "gel", "geometry": { "type": "box", "size": [0.3, 0.1, 0.1], "edge_length": 0.025 },
+                "transform": { "translate": [0, 0.2, 0] }, "velocity": [0.5, -1, 0.2] } ],
+  "boundary_conditions": [ { "type": "velocity", "velocity": [0, 0.5, 0], "end": 0.01,
+                             "region": { "type": "box", "min": [0.1, 0, -1], "max": [1, 1, 1] } } ],
+  "colliders": [ { "type": "plane", "point": [0, 0.16, 0], "normal": [0, 1, 0], "friction": 0.3 } ]
+})";
+
+}  // namespace
+
+TEST_CASE("cli: a scene run with 1 and with 2 threads writes byte-identical frames") {
+  const fs::path dir = temp_dir("determinism");
+  const fs::path scene = write(dir, "scene.json", kScene);
+  const auto one = run("run " + scene.string() + " --quiet --threads 1 --out " + (dir / "t1").string());
+  const auto two = run("run " + scene.string() + " --quiet --threads 2 --out " + (dir / "t2").string());
+  REQUIRE(one.code == 0);
+  REQUIRE(two.code == 0);
+  int compared = 0;
+  for (const auto& entry : fs::directory_iterator(dir / "t1")) {
+    const auto name = entry.path().filename();
+    if (name == "summary.json") continue;  // holds wall-clock timings
+    CHECK_MESSAGE(slurp(entry.path()) == slurp(dir / "t2" / name), name.string());
+    ++compared;
+  }
+  CHECK(compared == 2 * 5 + 1);  // frames 0..4 as VTU and PLY, plus the .pvd
+  // No temporary files are left behind.
+  for (const auto& entry : fs::directory_iterator(dir / "t1"))
+    CHECK(entry.path().filename().string().find(".tmp-") == std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("cli: errors exit non-zero with a message naming the file, pointer, value and expectation") {
+  const fs::path dir = temp_dir("errors");
+  struct Case {
+    std::string file, text, needle;
+  };
+  const std::string ok_body = R"("bodies": [ { "material": "gel", "geometry": { "type": "box", "size": [0.1, 0.1, 0.1] } } ])";
+  const Case cases[] = {
+      {"malformed.json", "{ \"time\": { \"dt\": 1e-4, }\n}", "line 1"},
+      {"wrong_type.json",
+       R"({ "time": { "dt": "fast" }, "materials": { "gel": { "bulk_modulus": 1e6, "shear_modulus": 1e6 } }, )" + ok_body + "}",
+       "/time/dt"},
+      {"range.json",
+       R"({ "time": { "dt": 1e-4 }, "materials": { "gel": { "density": -5, "bulk_modulus": 1e6, "shear_modulus": 1e6 } }, )" + ok_body + "}",
+       "/materials/gel/density"},
+      {"unknown.json",
+       R"({ "time": { "dt": 1e-4 }, "materials": { "gel": { "densty": 5, "bulk_modulus": 1e6, "shear_modulus": 1e6 } }, )" + ok_body + "}",
+       "did you mean 'density'"},
+      {"missing_mesh.json",
+       R"({ "time": { "dt": 1e-4 }, "materials": { "gel": { "bulk_modulus": 1e6, "shear_modulus": 1e6 } },
+            "bodies": [ { "material": "gel", "geometry": { "type": "tetgen", "path": "nowhere/bunny.node" } } ] })",
+       "bunny.node"},
+  };
+  for (const auto& c : cases) {
+    const fs::path file = write(dir, c.file, c.text);
+    const auto r = run("check " + file.string());
+    CHECK_MESSAGE(r.code == 2, c.file);
+    CHECK_MESSAGE(r.output.find(c.file) != std::string::npos, r.output);
+    CHECK_MESSAGE(r.output.find(c.needle) != std::string::npos, r.output);
+  }
+  const auto missing = run("check " + (dir / "absent.json").string());
+  CHECK(missing.code == 2);
+  CHECK(missing.output.find("absent.json") != std::string::npos);
+  const auto usage = run("run");
+  CHECK(usage.code == 1);
+  const auto bad_flag = run("run x.json --threads zero");
+  CHECK(bad_flag.code == 1);
+  CHECK(bad_flag.output.find("--threads") != std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("cli: a time step above the stable limit is refused with the limit in the message") {
+  const fs::path dir = temp_dir("unstable");
+  std::string text = kScene;
+  text.replace(text.find("1e-4"), 4, "5e-2");
+  text.replace(text.find("0.02,"), 5, "1.0, ");
+  const fs::path scene = write(dir, "scene.json", text);
+  const auto r = run("run " + scene.string() + " --quiet --out " + (dir / "out").string());
+  CHECK(r.code == 4);
+  CHECK(r.output.find("exceeds the stable explicit step") != std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("cli: every shipped scene passes check") {
+  int count = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(PERIFX_SOURCE_DIR) / "assets" / "scenes")) {
+    if (entry.path().extension() != ".json") continue;
+    const auto r = run("check " + entry.path().string());
+    CHECK_MESSAGE(r.code == 0, r.output);
+    ++count;
+  }
+  CHECK(count >= 3);
+}
