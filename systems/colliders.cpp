@@ -54,7 +54,7 @@ SystemDecl collider_system(WorldState& w) {
               Vec3& v = p.velocity[i];
               for (const Placed& pc : placed) {
                 const scene::Collider& c = *pc.spec;
-                Vec3 normal;
+                Vec3 normal = Vec3::Zero();
                 switch (c.kind) {
                   case scene::Collider::Kind::plane: {
                     const Vec3 nrm = pc.orientation * c.normal;
