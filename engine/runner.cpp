@@ -98,6 +98,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
   summary.particles = world.particle_count();
   summary.bonds = bonds;
   summary.alive_bonds = world.alive_bond_count();
+  summary.fragments = world.fragment_count();
   summary.steps = world.step_count() - first_step;
   summary.frames = frames;
   summary.simulated_seconds = world.time();
@@ -110,6 +111,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
   js.precision(17);
   js << "{\n  \"scene\": \"" << sc.name << "\",\n  \"particles\": " << summary.particles
      << ",\n  \"bonds\": " << summary.bonds << ",\n  \"alive_bonds\": " << summary.alive_bonds
+     << ",\n  \"fragments\": " << summary.fragments
      << ",\n  \"steps\": " << summary.steps << ",\n  \"frames\": " << summary.frames
      << ",\n  \"dt\": " << world.dt() << ",\n  \"simulated_seconds\": " << summary.simulated_seconds
      << ",\n  \"threads\": " << summary.threads << ",\n  \"step_wall_seconds\": " << summary.wall_seconds

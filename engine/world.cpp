@@ -5,6 +5,7 @@
 #include "model/setup.hpp"
 #include "scheduler.hpp"
 #include "systems/parallel.hpp"
+#include "systems/systems.hpp"
 #include "world_state.hpp"
 
 namespace perifx {
@@ -44,6 +45,10 @@ std::size_t World::alive_bond_count() const {
   return deterministic_sum(alive.size(), std::size_t(0), [&](std::size_t k) { return std::size_t(alive[k]); });
 }
 int World::threads() const { return scheduler_->threads(); }
+std::size_t World::fragment_count() const {
+  std::vector<std::uint32_t> id;
+  return systems::compute_fragments(*state_, id);
+}
 
 double World::stable_time_step() const {
   if (stable_dt_ == 0.0) {
@@ -110,9 +115,9 @@ std::vector<FieldView> World::fields() const {
     std::uint32_t alive = 0;
     for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) alive += w.bonds.alive[k];
     w.derived.alive_bonds[i] = alive;
-    const std::uint32_t initial = w.bonds.initial_count[i];
-    w.state.damage[i] = initial ? 1.0 - double(alive) / double(initial) : 0.0;
   }
+  // damage, broken_bonds and plastic_strain are kept current by the damage system (damage.cpp).
+  w.derived.fragment_count = systems::compute_fragments(w, w.derived.fragment_id);
   auto vec = [n](const char* name, const std::vector<Vec3>& a, const char* unit, const char* doc) {
     return FieldView{name, FieldType::f64, 3, FieldLocation::particle, a.data(), n, unit, doc};
   };
@@ -128,6 +133,11 @@ std::vector<FieldView> World::fields() const {
       f64("damage", w.state.damage, "1", "φ = 1 − n/N (Eq 19)"),
       FieldView{"alive_bonds", FieldType::u32, 1, FieldLocation::particle, w.derived.alive_bonds.data(), n, "1",
                 "bonds still holding"},
+      FieldView{"broken_bonds", FieldType::u32, 1, FieldLocation::particle, w.state.broken_bonds.data(), n, "1",
+                "N − n: bonds broken since setup"},
+      f64("plastic_strain", w.state.plastic_strain, "1", "mean |e^p|/|ξ| over alive bonds (Eq 11–16)"),
+      FieldView{"fragment_id", FieldType::u32, 1, FieldLocation::particle, w.derived.fragment_id.data(), n, "1",
+                "connected component of alive bonds: its smallest particle index"},
       f64("volume", p.volume, "m^3", "particle volume V"),
       f64("mass", p.mass, "kg", "particle mass"),
       FieldView{"material_id", FieldType::u16, 1, FieldLocation::particle, p.material_id.data(), n, "1",

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "components/bonds.hpp"
+#include "components/contact.hpp"
 #include "components/particles.hpp"
 #include "components/tet_mesh.hpp"
 #include "scene/scene.hpp"
@@ -38,6 +39,8 @@ struct BodyInfo {
 struct DerivedFields {
   std::vector<Vec3> displacement;          // y − x, m
   std::vector<std::uint32_t> alive_bonds;  // n_i
+  std::vector<std::uint32_t> fragment_id;  // connected component of alive bonds (smallest particle index)
+  std::size_t fragment_count = 0;
 };
 
 struct WorldState {
@@ -52,6 +55,8 @@ struct WorldState {
   std::vector<BodyInfo> bodies;
   BoundaryConditionSet boundary;
   DerivedFields derived;
+  ContactState contact;           // particle–particle contact (systems/contact.cpp)
+  ProjectileSet projectiles;      // rigid projectiles (systems/projectiles.cpp)
   bool any_plastic = false;       // some material has a finite yield energy
   bool any_anisotropic = false;   // some material has G ≠ I
   bool any_fracture = false;      // some material has a finite critical stretch

@@ -17,8 +17,14 @@ namespace perifx::systems {
 // family_build.cpp: families and bond data from reference positions, horizons and, for the mesh
 // rule, the face adjacency of the embedded tet mesh (notes.md, §5.2 "mesh connectivity").
 void build_families(WorldState& world, const std::vector<std::array<std::int32_t, 4>>& tet_face_neighbors);
+// initial_cracks.cpp: removes the bonds whose reference segment crosses a crack polygon (both
+// directions); returns the number of directed bonds removed.
+std::size_t remove_cracked_bonds(WorldState& world, const std::vector<scene::Crack>& cracks);
 // model_constants.cpp: per-particle a, b, θ scale and β for the paper or discrete normalization.
 void compute_model_constants(WorldState& world);
+// contact.cpp / projectiles.cpp: resolve the scene's contact settings and projectiles, size buffers.
+void setup_contact(WorldState& world);
+void setup_projectiles(WorldState& world);
 
 // ---- kernels (also used by the stability estimate and the tests) ----
 // θ_i (Eq 6) and P_i for positions y; theta and coupling sized particle count.
@@ -32,6 +38,18 @@ void compute_internal_force(const WorldState& world, const std::vector<Vec3>& y,
 // neighbours' constants, which differ between the lattice's tet types.)
 void compute_virial_stress(const WorldState& world, const std::vector<Vec3>& y,
                            const std::vector<double>& coupling, std::vector<Mat3>& stress);
+// plasticity.cpp: Eq 11–16 consistent return, in place on bonds.plastic_extension, for positions y
+// and dilatations theta (θ_i, not P_i).
+void update_plastic_extension(WorldState& world, const std::vector<Vec3>& y, const std::vector<double>& theta);
+// fracture.cpp: the symmetric break predicate of the physical bond containing directed bond k of
+// particle `owner` (Eq 18–19, notes.md), and the pass that applies it to every alive bond.
+bool bond_breaks(const WorldState& world, const std::vector<Vec3>& y, std::uint32_t owner, std::uint32_t k);
+void update_fracture(WorldState& world, const std::vector<Vec3>& y);
+// damage.cpp: φ, broken_bonds and plastic_strain per particle from the bonds.
+void compute_damage(WorldState& world);
+// fragments.cpp: connected components of alive bonds; id = smallest particle index in the
+// component. Returns the number of components.
+std::size_t compute_fragments(const WorldState& world, std::vector<std::uint32_t>& fragment_id);
 
 // ---- per-step systems ----
 SystemDecl kick_begin_system(WorldState& world);
@@ -42,5 +60,11 @@ SystemDecl dilatation_system(WorldState& world);
 SystemDecl elastic_force_system(WorldState& world);
 SystemDecl external_load_system(WorldState& world);
 SystemDecl kick_end_system(WorldState& world);
+SystemDecl contact_system(WorldState& world);
+SystemDecl projectile_drift_system(WorldState& world);
+SystemDecl projectile_contact_system(WorldState& world);
+SystemDecl plasticity_system(WorldState& world);
+SystemDecl fracture_system(WorldState& world);
+SystemDecl damage_system(WorldState& world);
 
 }  // namespace perifx::systems

@@ -179,10 +179,10 @@ int cmd_run(const Args& a) {
   if (!a.quiet) {
     char buf[400];
     std::snprintf(buf, sizeof buf,
-                  "done: %zu particles, %zu bonds (%zu alive), %llu steps, %llu frames, %.3g s simulated\n"
+                  "done: %zu particles, %zu bonds (%zu alive), %zu fragments, %llu steps, %llu frames, %.3g s simulated\n"
                   "      wall %.2f s stepping + %.2f s output, %.3g bond-updates/s on %d threads\n"
                   "      output: %s\n",
-                  s.particles, s.bonds, s.alive_bonds, (unsigned long long)s.steps, (unsigned long long)s.frames,
+                  s.particles, s.bonds, s.alive_bonds, s.fragments, (unsigned long long)s.steps, (unsigned long long)s.frames,
                   s.simulated_seconds, s.wall_seconds, s.output_seconds, s.bond_updates_per_second, s.threads,
                   s.output_directory.string().c_str());
     std::cerr << buf;

@@ -52,6 +52,9 @@ void allocate_state(WorldState& w) {
   s.internal_force.assign(n, Vec3::Zero());
   s.external_force.assign(n, Vec3::Zero());
   s.damage.assign(n, 0.0);
+  s.contact_force.assign(n, Vec3::Zero());
+  s.broken_bonds.assign(n, 0);
+  s.plastic_strain.assign(n, 0.0);
 }
 
 }  // namespace
@@ -135,6 +138,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   scheduler.execute([&] {
     const auto adjacency = geometry::face_neighbors(w.mesh);
     systems::build_families(w, adjacency);
+    systems::remove_cracked_bonds(w, scene.cracks);
     systems::compute_model_constants(w);
     // Initial acceleration for the first kick of velocity Verlet.
     systems::compute_dilatation(w, p.position, w.state.dilatation, w.state.dilatation_coupling);
@@ -144,6 +148,8 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
       p.acceleration[i] = (w.state.internal_force[i] + w.state.external_force[i]) / p.mass[i];
     });
   });
+  systems::setup_contact(w);
+  systems::setup_projectiles(w);
   return world;
 }
 
@@ -151,11 +157,17 @@ void add_step_systems(WorldState& w, Scheduler& scheduler) {
   scheduler.add(systems::kick_begin_system(w));
   scheduler.add(systems::boundary_condition_system(w));
   scheduler.add(systems::drift_system(w));
+  if (!w.projectiles.bodies.empty()) scheduler.add(systems::projectile_drift_system(w));
   scheduler.add(systems::collider_system(w));
   scheduler.add(systems::dilatation_system(w));
+  if (w.any_plastic) scheduler.add(systems::plasticity_system(w));
   scheduler.add(systems::elastic_force_system(w));
   scheduler.add(systems::external_load_system(w));
+  if (w.contact.enabled) scheduler.add(systems::contact_system(w));
+  if (!w.projectiles.bodies.empty()) scheduler.add(systems::projectile_contact_system(w));
   scheduler.add(systems::kick_end_system(w));
+  if (w.any_fracture) scheduler.add(systems::fracture_system(w));
+  if (w.any_fracture || w.any_plastic) scheduler.add(systems::damage_system(w));
 }
 
 double estimate_stable_time_step(const WorldState& w) {

@@ -141,6 +141,26 @@ class Converter {
       s.boundary_conditions.push_back(condition(conditions[i], "/boundary_conditions/" + std::to_string(i)));
     const Json& colliders = j["colliders"];
     for (std::size_t i = 0; i < colliders.size(); ++i) s.colliders.push_back(collider(colliders[i]));
+    const Json& ct = j["contact"];
+    if (ct.contains("enabled")) s.contact.mode = ct["enabled"].get<bool>() ? Contact::Mode::on : Contact::Mode::off;
+    s.contact.distance_factor = num(ct["distance_factor"]);
+    s.contact.stiffness_factor = num(ct["stiffness_factor"]);
+    s.contact.damping_ratio = num(ct["damping_ratio"]);
+    s.contact.friction = num(ct["friction"]);
+    for (const Json& pj : j["projectiles"]) {
+      Projectile pr;
+      pr.center = vec(pj["center"]);
+      pr.radius = num(pj["radius"]);
+      pr.mass = pj.contains("mass") ? num(pj["mass"])
+                                    : num(pj["density"]) * 4.0 / 3.0 * kPi * pr.radius * pr.radius * pr.radius;
+      pr.velocity = vec(pj["velocity"]);
+      pr.angular_velocity = vec(pj["angular_velocity"]);
+      pr.friction = num(pj["friction"]);
+      s.projectiles.push_back(pr);
+    }
+    const Json& cracks = j["cracks"];
+    for (std::size_t i = 0; i < cracks.size(); ++i)
+      s.cracks.push_back(crack(cracks[i], "/cracks/" + std::to_string(i) + "/polygon"));
 
     const Json& o = j["output"];
     s.output.directory = fs::absolute(fs::path(o["directory"].get<std::string>())).lexically_normal();
@@ -313,6 +333,35 @@ class Converter {
         out.rotation_axis = vec(c["rotation"]["axis"]).normalized();
         out.rotation_angle = num(c["rotation"]["degrees"]) * kPi / 180.0;
       }
+    }
+    return out;
+  }
+
+  // Planar within 1e-6 of the polygon's size, and with a non-zero area (Newell normal).
+  Crack crack(const Json& c, const std::string& ptr) const {
+    Crack out;
+    for (const Json& v : c["polygon"]) out.polygon.push_back(vec(v));
+    const auto& poly = out.polygon;
+    Vec3 normal = Vec3::Zero(), centroid = Vec3::Zero();
+    double size = 0.0;
+    for (std::size_t a = 0; a < poly.size(); ++a) {
+      const Vec3& p = poly[a];
+      const Vec3& q = poly[(a + 1) % poly.size()];
+      normal += Vec3((p.y() - q.y()) * (p.z() + q.z()), (p.z() - q.z()) * (p.x() + q.x()),
+                     (p.x() - q.x()) * (p.y() + q.y()));
+      centroid += p;
+      size = std::max(size, (q - p).norm());
+    }
+    centroid /= double(poly.size());
+    const double area = 0.5 * normal.norm();
+    if (!(size > 0.0) || !(area > 1e-12 * size * size))
+      fail(ptr, "degenerate polygon (got zero area; expected at least 3 non-collinear vertices)");
+    normal.normalize();
+    for (std::size_t a = 0; a < poly.size(); ++a) {
+      const double off = std::abs((poly[a] - centroid).dot(normal));
+      if (off > 1e-6 * size)
+        fail(ptr + "/" + std::to_string(a), "polygon not planar (got a vertex " + std::to_string(off) +
+                                                " m off its plane; expected all vertices in one plane)");
     }
     return out;
   }

@@ -31,6 +31,7 @@ Key integer(std::string n, std::string d) { return key(std::move(n), Type::integ
 Key text(std::string n, std::string d) { return key(std::move(n), Type::string, std::move(d)); }
 Key vec3(std::string n, std::string d) { return key(std::move(n), Type::vec3, std::move(d)); }
 Key mat3(std::string n, std::string d) { return key(std::move(n), Type::mat3, std::move(d)); }
+Key points(std::string n, std::string d) { return key(std::move(n), Type::vec3_list, std::move(d)); }
 Key choice(std::string n, std::vector<std::string> choices, std::string d) {
   Key k = key(std::move(n), Type::enumeration, std::move(d));
   k.choices = std::move(choices);
@@ -161,6 +162,43 @@ Key build_spec() {
       number("restitution", "Normal restitution.").ge(0).le(1).def(0),
   }).def(Json::array());
 
+  Key contact = object("contact", "contact",
+      "Particle–particle contact: a short-range repulsion between particles that are not joined by an "
+      "alive bond (different bodies, or fragments) once closer than d_c = distance_factor·(∛V_i + ∛V_j)/2. "
+      "The pair stiffness k = stiffness_factor·min(m_i, m_j)/dt² is tied to the time step so contact "
+      "stays stable at the scene's dt (k·dt²/m ≪ 1); it also damps the normal approach and applies "
+      "Coulomb friction.", {
+      key("enabled", Type::boolean, "Whether contact runs.")
+          .def_text("true when there are at least 2 bodies or a material has a finite `critical_stretch`"),
+      number("distance_factor", "Contact distance d_c as a multiple of the mean particle size ∛V.")
+          .gt(0).le(3).def(0.9),
+      number("stiffness_factor", "k·dt²/min(m_i, m_j); small keeps the explicit step stable.")
+          .gt(0).le(0.5).def(0.05),
+      number("damping_ratio", "Normal damping, fraction of critical for the pair spring.").ge(0).le(1).def(0.1),
+      number("friction", "Coulomb friction coefficient between particles.").ge(0).def(0),
+  }).def(Json::object());
+
+  Key projectile = nested("projectiles", Type::array, "projectile",
+      "Rigid projectiles with mass, integrated like the particles (gravity applies); they push particles "
+      "within radius + d_c/2 with the contact spring (contact's stiffness_factor and damping_ratio) and "
+      "receive the opposite force. Their state is written per frame to projectiles.csv.", {
+      choice("type", {"sphere"}, "Shape.").req(),
+      vec3("center", "Initial center, m.").req(),
+      number("radius", "Radius, m.").gt(0).req(),
+      number("density", "Mass density, kg/m³ (mass = density·4/3πr³).").gt(0),
+      number("mass", "Mass, kg.").gt(0),
+      vec3("velocity", "Initial velocity, m/s.").def(kZero),
+      vec3("angular_velocity", "Initial angular velocity, rad/s.").def(kZero),
+      number("friction", "Coulomb friction coefficient against particles.").ge(0).def(0),
+  }).one_of({{"density"}, {"mass"}}, true).def(Json::array());
+
+  Key crack = nested("cracks", Type::array, "crack",
+      "Initial cracks (paper Fig. 17): bonds whose reference segment crosses a crack polygon are "
+      "never created, and N_i (Eq 19) counts only the bonds that exist.", {
+      points("polygon", "Vertices of a planar polygon, m, in order around its boundary (convex or "
+                        "not); planar within 1e-6 of its size, non-degenerate.").at_least(3).req(),
+  }).def(Json::array());
+
   return object("", "scene", "A scene.", {
       text("name", "Scene name.").def_text("the scene file's name without extension"),
       text("description", "Free text for people; ignored by the engine.").empty_ok(),
@@ -181,6 +219,9 @@ Key build_spec() {
       body,
       condition,
       collider,
+      contact,
+      projectile,
+      crack,
       object("output", "output", "What is written, and where.", {
           text("directory", "Output folder, relative to the current working directory.").def("out"),
           strings("formats", {"vtu", "ply"},
@@ -275,6 +316,7 @@ std::string expected(const Key& k) {
              (k.nonzero ? ", not all zero" : "");
     }
     case Type::mat3: return "a 3x3 matrix: an array of 3 rows of 3 numbers";
+    case Type::vec3_list: return "an array of points [x, y, z]" + count_text(k.min_items);
     case Type::object: return "an object";
     case Type::map: return "an object of named " + k.label + "s" + count_text(k.min_items);
     case Type::array: return "an array of " + k.label + " objects" + count_text(k.min_items);
@@ -350,6 +392,16 @@ class Validator {
           for (const Json& c : row)
             if (!std::isfinite(c.get<double>())) wrong(k, v, ptr, "not a finite number");
         }
+        return;
+      }
+      case Type::vec3_list: {
+        if (!v.is_array()) wrong(k, v, ptr);
+        for (const Json& point : v) {
+          if (!is_numbers(point, 3)) wrong(k, v, ptr);
+          for (const Json& c : point)
+            if (!std::isfinite(c.get<double>())) wrong(k, v, ptr, "not a finite number");
+        }
+        if (v.size() < k.min_items) wrong(k, v, ptr, "too few points");
         return;
       }
       case Type::object:

@@ -22,6 +22,7 @@ enum class Type {
   string,
   enumeration,       // one string of `choices`
   vec3,              // [x, y, z]
+  vec3_list,         // [[x, y, z], ...] (min_items: at least that many points)
   mat3,              // [[..],[..],[..]], rows
   object,            // fixed keys (`keys`)
   map,               // {"<name>": object with `keys`, ...}

@@ -57,6 +57,7 @@ class World {
   std::size_t particle_count() const;
   std::size_t bond_count() const;       // directed bonds (each pair counts twice)
   std::size_t alive_bond_count() const;
+  std::size_t fragment_count() const;  // connected components of alive bonds (computed on call)
   int threads() const;
 
   // The largest stable explicit step of this world's elastic model (power iteration on the
