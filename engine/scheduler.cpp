@@ -20,6 +20,8 @@ const char* component_name(Component c) {
     case Component::damage: return "damage";
     case Component::internal_force: return "internal_force";
     case Component::external_force: return "external_force";
+    case Component::contact_force: return "contact_force";
+    case Component::projectiles: return "projectiles";
     case Component::count_: break;
   }
   return "?";

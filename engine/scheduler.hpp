@@ -30,6 +30,8 @@ enum class Component : std::uint8_t {
   damage,
   internal_force,
   external_force,
+  contact_force,
+  projectiles,
   count_  // number of components
 };
 const char* component_name(Component c);

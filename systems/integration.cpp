@@ -7,7 +7,8 @@
 // kicked: the boundary condition system owns their velocity.
 // kick_begin  reads acceleration, flags; writes velocity.
 // drift       reads velocity;            writes position.
-// kick_end    reads internal_force, external_force, flags; writes velocity, acceleration.
+// kick_end    reads internal_force, external_force, contact_force, flags; writes velocity, acceleration.
+// (contact_force stays zero when neither contact nor projectiles run.)
 #include <cmath>
 
 #include "parallel.hpp"
@@ -38,14 +39,14 @@ SystemDecl drift_system(WorldState& w) {
 
 SystemDecl kick_end_system(WorldState& w) {
   return {"kick_end",
-          {Component::internal_force, Component::external_force, Component::flags},
+          {Component::internal_force, Component::external_force, Component::contact_force, Component::flags},
           {Component::velocity, Component::acceleration},
           [&w] {
             const double half = 0.5 * w.clock.dt;
             auto& p = w.particles;
             const auto& s = w.state;
             parallel_for_each(p.count(), [&](std::size_t i) {
-              const Vec3 a = (s.internal_force[i] + s.external_force[i]) / p.mass[i];
+              const Vec3 a = (s.internal_force[i] + s.external_force[i] + s.contact_force[i]) / p.mass[i];
               p.acceleration[i] = a;
               if (p.flags[i] & kPrescribed) return;
               const double c = w.model.damping[i];
