@@ -49,7 +49,6 @@ struct ParticleState {
   std::vector<Vec3> internal_force;         // N, peridynamic force on the particle (Eq 2 × V_i)
   std::vector<Vec3> external_force;         // N, gravity and loads
   std::vector<Vec3> contact_force;          // N, particle–particle and projectile contact (contact systems)
-  std::vector<Vec3> contact_force;          // N, particle–particle and projectile contact (contact systems)
   std::vector<double> damage;               // φ_i = 1 − n_i/N_i (Eq 19), from the end of the last step
   std::vector<std::uint32_t> broken_bonds;  // N_i − n_i, written with damage (damage system)
   std::vector<double> plastic_strain;       // mean |e^p|/|ξ| over alive bonds, written with damage

@@ -6,7 +6,6 @@
 
 #include "components/bonds.hpp"
 #include "components/contact.hpp"
-#include "components/contact.hpp"
 #include "components/particles.hpp"
 #include "components/tet_mesh.hpp"
 #include "scene/scene.hpp"
@@ -56,8 +55,6 @@ struct WorldState {
   std::vector<BodyInfo> bodies;
   BoundaryConditionSet boundary;
   DerivedFields derived;
-  ContactState contact;           // particle–particle contact (systems/contact.cpp)
-  ProjectileSet projectiles;      // rigid projectiles (systems/projectiles.cpp)
   ContactState contact;           // particle–particle contact (systems/contact.cpp)
   ProjectileSet projectiles;      // rigid projectiles (systems/projectiles.cpp)
   bool any_plastic = false;       // some material has a finite yield energy

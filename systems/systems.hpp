@@ -25,9 +25,6 @@ void compute_model_constants(WorldState& world);
 // contact.cpp / projectiles.cpp: resolve the scene's contact settings and projectiles, size buffers.
 void setup_contact(WorldState& world);
 void setup_projectiles(WorldState& world);
-// contact.cpp / projectiles.cpp: resolve the scene's contact settings and projectiles, size buffers.
-void setup_contact(WorldState& world);
-void setup_projectiles(WorldState& world);
 
 // ---- kernels (also used by the stability estimate and the tests) ----
 // θ_i (Eq 6) and P_i for positions y; theta and coupling sized particle count.
@@ -63,9 +60,6 @@ SystemDecl dilatation_system(WorldState& world);
 SystemDecl elastic_force_system(WorldState& world);
 SystemDecl external_load_system(WorldState& world);
 SystemDecl kick_end_system(WorldState& world);
-SystemDecl contact_system(WorldState& world);
-SystemDecl projectile_drift_system(WorldState& world);
-SystemDecl projectile_contact_system(WorldState& world);
 SystemDecl contact_system(WorldState& world);
 SystemDecl projectile_drift_system(WorldState& world);
 SystemDecl projectile_contact_system(WorldState& world);

@@ -53,7 +53,6 @@ void allocate_state(WorldState& w) {
   s.external_force.assign(n, Vec3::Zero());
   s.damage.assign(n, 0.0);
   s.contact_force.assign(n, Vec3::Zero());
-  s.contact_force.assign(n, Vec3::Zero());
   s.broken_bonds.assign(n, 0);
   s.plastic_strain.assign(n, 0.0);
 }
@@ -151,8 +150,6 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   });
   systems::setup_contact(w);
   systems::setup_projectiles(w);
-  systems::setup_contact(w);
-  systems::setup_projectiles(w);
   return world;
 }
 
@@ -161,14 +158,11 @@ void add_step_systems(WorldState& w, Scheduler& scheduler) {
   scheduler.add(systems::boundary_condition_system(w));
   scheduler.add(systems::drift_system(w));
   if (!w.projectiles.bodies.empty()) scheduler.add(systems::projectile_drift_system(w));
-  if (!w.projectiles.bodies.empty()) scheduler.add(systems::projectile_drift_system(w));
   scheduler.add(systems::collider_system(w));
   scheduler.add(systems::dilatation_system(w));
   if (w.any_plastic) scheduler.add(systems::plasticity_system(w));
   scheduler.add(systems::elastic_force_system(w));
   scheduler.add(systems::external_load_system(w));
-  if (w.contact.enabled) scheduler.add(systems::contact_system(w));
-  if (!w.projectiles.bodies.empty()) scheduler.add(systems::projectile_contact_system(w));
   if (w.contact.enabled) scheduler.add(systems::contact_system(w));
   if (!w.projectiles.bodies.empty()) scheduler.add(systems::projectile_contact_system(w));
   scheduler.add(systems::kick_end_system(w));

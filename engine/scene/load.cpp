@@ -158,23 +158,6 @@ class Converter {
       pr.friction = num(pj["friction"]);
       s.projectiles.push_back(pr);
     }
-    const Json& ct = j["contact"];
-    if (ct.contains("enabled")) s.contact.mode = ct["enabled"].get<bool>() ? Contact::Mode::on : Contact::Mode::off;
-    s.contact.distance_factor = num(ct["distance_factor"]);
-    s.contact.stiffness_factor = num(ct["stiffness_factor"]);
-    s.contact.damping_ratio = num(ct["damping_ratio"]);
-    s.contact.friction = num(ct["friction"]);
-    for (const Json& pj : j["projectiles"]) {
-      Projectile pr;
-      pr.center = vec(pj["center"]);
-      pr.radius = num(pj["radius"]);
-      pr.mass = pj.contains("mass") ? num(pj["mass"])
-                                    : num(pj["density"]) * 4.0 / 3.0 * kPi * pr.radius * pr.radius * pr.radius;
-      pr.velocity = vec(pj["velocity"]);
-      pr.angular_velocity = vec(pj["angular_velocity"]);
-      pr.friction = num(pj["friction"]);
-      s.projectiles.push_back(pr);
-    }
     const Json& cracks = j["cracks"];
     for (std::size_t i = 0; i < cracks.size(); ++i)
       s.cracks.push_back(crack(cracks[i], "/cracks/" + std::to_string(i) + "/polygon"));

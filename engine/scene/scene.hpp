@@ -145,26 +145,6 @@ struct Projectile {
   double friction = 0.0;               // Coulomb coefficient against particles
 };
 
-// Particle–particle contact between particles not joined by an alive bond (systems/contact.cpp).
-struct Contact {
-  enum class Mode { automatic, on, off };
-  Mode mode = Mode::automatic;         // automatic: on when there are ≥ 2 bodies or a breakable material
-  double distance_factor = 0.9;        // d_c = factor·(∛V_i + ∛V_j)/2
-  double stiffness_factor = 0.05;      // pair stiffness k = factor·min(m_i, m_j)/dt²
-  double damping_ratio = 0.1;          // normal damping, fraction of critical
-  double friction = 0.0;               // Coulomb coefficient
-};
-
-// A rigid projectile with mass (systems/projectiles.cpp). Only spheres.
-struct Projectile {
-  Vec3 center = Vec3::Zero();          // initial, m
-  double radius = 0.1;                 // m
-  double mass = 1.0;                   // kg (from density·volume when the scene gives a density)
-  Vec3 velocity = Vec3::Zero();        // initial, m/s
-  Vec3 angular_velocity = Vec3::Zero();// initial, rad/s
-  double friction = 0.0;               // Coulomb coefficient against particles
-};
-
 struct Time {
   double dt = 1e-4;                    // s
   double duration = 1.0;               // s
@@ -190,8 +170,6 @@ struct Scene {
   std::vector<Body> bodies;
   std::vector<BoundaryCondition> boundary_conditions;
   std::vector<Collider> colliders;
-  Contact contact;
-  std::vector<Projectile> projectiles;
   Contact contact;
   std::vector<Projectile> projectiles;
   std::vector<Crack> cracks;

@@ -192,36 +192,6 @@ Key build_spec() {
       number("friction", "Coulomb friction coefficient against particles.").ge(0).def(0),
   }).one_of({{"density"}, {"mass"}}, true).def(Json::array());
 
-  Key contact = object("contact", "contact",
-      "Particle–particle contact: a short-range repulsion between particles that are not joined by an "
-      "alive bond (different bodies, or fragments) once closer than d_c = distance_factor·(∛V_i + ∛V_j)/2. "
-      "The pair stiffness k = stiffness_factor·min(m_i, m_j)/dt² is tied to the time step so contact "
-      "stays stable at the scene's dt (k·dt²/m ≪ 1); it also damps the normal approach and applies "
-      "Coulomb friction.", {
-      key("enabled", Type::boolean, "Whether contact runs.")
-          .def_text("true when there are at least 2 bodies or a material has a finite `critical_stretch`"),
-      number("distance_factor", "Contact distance d_c as a multiple of the mean particle size ∛V.")
-          .gt(0).le(3).def(0.9),
-      number("stiffness_factor", "k·dt²/min(m_i, m_j); small keeps the explicit step stable.")
-          .gt(0).le(0.5).def(0.05),
-      number("damping_ratio", "Normal damping, fraction of critical for the pair spring.").ge(0).le(1).def(0.1),
-      number("friction", "Coulomb friction coefficient between particles.").ge(0).def(0),
-  }).def(Json::object());
-
-  Key projectile = nested("projectiles", Type::array, "projectile",
-      "Rigid projectiles with mass, integrated like the particles (gravity applies); they push particles "
-      "within radius + d_c/2 with the contact spring (contact's stiffness_factor and damping_ratio) and "
-      "receive the opposite force. Their state is written per frame to projectiles.csv.", {
-      choice("type", {"sphere"}, "Shape.").req(),
-      vec3("center", "Initial center, m.").req(),
-      number("radius", "Radius, m.").gt(0).req(),
-      number("density", "Mass density, kg/m³ (mass = density·4/3πr³).").gt(0),
-      number("mass", "Mass, kg.").gt(0),
-      vec3("velocity", "Initial velocity, m/s.").def(kZero),
-      vec3("angular_velocity", "Initial angular velocity, rad/s.").def(kZero),
-      number("friction", "Coulomb friction coefficient against particles.").ge(0).def(0),
-  }).one_of({{"density"}, {"mass"}}, true).def(Json::array());
-
   Key crack = nested("cracks", Type::array, "crack",
       "Initial cracks (paper Fig. 17): bonds whose reference segment crosses a crack polygon are "
       "never created, and N_i (Eq 19) counts only the bonds that exist.", {
@@ -249,8 +219,6 @@ Key build_spec() {
       body,
       condition,
       collider,
-      contact,
-      projectile,
       contact,
       projectile,
       crack,
