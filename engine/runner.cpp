@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "io/io.hpp"
+#include "world_state.hpp"
 
 namespace perifx {
 namespace {
@@ -62,6 +63,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
   const std::size_t bonds = world.bond_count();
 
   double step_wall = 0.0, output_wall = 0.0;
+  std::string projectile_csv;  // projectiles.csv so far
   auto write_frame = [&](std::uint64_t k) {
     const auto t0 = clock::now();
     const auto fields = selected_fields(world);
@@ -71,6 +73,22 @@ RunSummary run_world(World& world, const RunOptions& options) {
       pvd.add(world.time(), frame_name(k, "vtu"));
     }
     if (sc.output.ply) io::write_ply_points(summary.output_directory / frame_name(k, "ply"), points, fields);
+    // Rigid projectiles: one CSV row per projectile and frame; the whole file is rewritten
+    // atomically each frame, so a reader never sees a half-written row.
+    if (const auto& projectiles = world.state().projectiles.bodies; !projectiles.empty()) {
+      std::ostringstream rows;
+      rows.precision(17);
+      if (projectile_csv.empty()) projectile_csv = "time,id,x,y,z,vx,vy,vz,wx,wy,wz,fx,fy,fz\n";
+      for (std::size_t id = 0; id < projectiles.size(); ++id) {
+        const auto& pr = projectiles[id];
+        rows << world.time() << ',' << id;
+        for (const Vec3* v : {&pr.center, &pr.velocity, &pr.angular_velocity, &pr.contact_force})
+          rows << ',' << v->x() << ',' << v->y() << ',' << v->z();
+        rows << '\n';
+      }
+      projectile_csv += rows.str();
+      io::write_atomic(summary.output_directory / "projectiles.csv", [&](std::ostream& out) { out << projectile_csv; });
+    }
     output_wall += std::chrono::duration<double>(clock::now() - t0).count();
   };
 
