@@ -68,7 +68,7 @@ World small_world(double psi0, double cap_ratio) {
 
 }  // namespace
 
-TEST_CASE("plastic return: |A_dev| lands on sqrt(2 Psi0); unloading is elastic; permanent set as computed") {
+TEST_CASE("plastic return: |A_dev| lands on sqrt(2 Psi0), unloading is elastic, permanent set as computed") {
   const double eps = 1e-3;
   // Trial force of the chosen bond at ε, from an elastic world with the same mesh.
   World probe = small_world(kInfinity, 0.0);
@@ -184,7 +184,7 @@ double bar_residual_strain(double psi0, double strain, std::size_t* yielded_bond
 
 }  // namespace
 
-TEST_CASE("bar stretched past yield keeps a permanent elongation; the elastic bar returns") {
+TEST_CASE("bar stretched past yield keeps a permanent elongation, the elastic bar returns") {
   const double strain = 0.02;
   // Ψ0 from the largest trial deviatoric force at the hold strain: yield at 30% of it.
   World probe = small_world(kInfinity, 0.0);
