@@ -9,7 +9,8 @@ duration and frame rate are set so that one frame is exactly --steps steps (mesh
 absolute). s/step is summary.json's step_wall_seconds / steps (set-up and output excluded); the
 CPU time of the child (user + sys, which includes set-up) is reported too, because a loaded machine
 inflates wall-clock time: cpu_s_per_step = (CPU of the run - CPU of `info`, i.e. the set-up) / steps;
-on an idle machine with 2 threads, s/step is about cpu_s_per_step / 2. Prints one JSON object per scene.
+on an idle machine with 2 threads, s/step is about cpu_s_per_step / 2. est_idle_s_per_step is a
+second estimate: s_per_step x (CPU time / wall time of the whole run) / threads. Prints one JSON object per scene.
 """
 import argparse
 import json
@@ -67,6 +68,9 @@ def main():
                 out["s_per_step"] = summ["step_wall_seconds"] / summ["steps"]
                 # CPU seconds per step: the run's CPU time minus the set-up CPU time that `info` needed.
                 out["cpu_s_per_step"] = (out["total_cpu_s"] - info_cpu) / summ["steps"]
+                # Second estimate, robust when set-up dominates: the share of the 2 cores the run got.
+                share = out["total_cpu_s"] / max(wall, 1e-9)
+                out["est_idle_s_per_step"] = out["s_per_step"] * share / a.threads
             except (OSError, KeyError, ValueError):
                 out["error"] = (r.stderr or r.stdout)[-300:]
         print(json.dumps(out), flush=True)
