@@ -14,6 +14,7 @@
 #include "geometry/geometry.hpp"
 #include "io/io.hpp"
 #include "perifx/world.hpp"
+#include "render/command.hpp"
 #include "runner.hpp"
 #include "world_state.hpp"
 
@@ -21,7 +22,7 @@ namespace {
 
 enum Exit { kOk = 0, kUsage = 1, kScene = 2, kOutput = 3, kUnstable = 4, kInternal = 5 };
 
-const char* kUsageText =
+const std::string kUsageText = std::string(
     "usage: perifx <command> [options]\n"
     "  run SCENE.json [--out DIR] [--frames N] [--threads N] [--quiet]\n"
     "                      simulate and write frames (VTU + PVD for ParaView, PLY for Houdini/Blender)\n"
@@ -29,6 +30,7 @@ const char* kUsageText =
     "  info SCENE.json [--threads N]\n"
     "                      particles, bonds, memory and the stable time step\n"
     "  spec                print the scene format reference (markdown)\n"
+    ) + perifx::render::kRenderUsage +
     "exit codes: 0 ok, 1 usage, 2 invalid scene or mesh, 3 output error, 4 unstable time step, 5 internal\n";
 
 struct Args {
@@ -193,6 +195,7 @@ int cmd_run(const Args& a) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc >= 2 && std::string(argv[1]) == "render") return perifx::render::render_command(argc, argv);
   const Args a = parse(argc, argv);
   try {
     if (a.command == "run") return cmd_run(a);

@@ -1,0 +1,17 @@
+// The `perifx render` command line (parsing, progress display, exit codes), kept here so the CLI's
+// main only dispatches to it.
+#pragma once
+
+namespace perifx::render {
+
+inline constexpr const char* kRenderUsage =
+    "  render RUN_DIR [--out DIR] [--width W] [--height H] [--color-by damage|material|none]\n"
+    "         [--frames A:B] [--mp4] [--backend povray|builtin] [--scene SCENE.json]\n"
+    "         [--projectile-radius R] [--particle-scale S] [--quiet]\n"
+    "                      PNG frames (RUN_DIR/render/frame.NNNN.png) and with --mp4 a movie (ffmpeg)\n";
+
+// argv[1] is "render". Returns the process exit code (0 ok, 1 usage, 2 unreadable run directory,
+// 3 output error, 5 backend or internal error).
+int render_command(int argc, char** argv);
+
+}  // namespace perifx::render

@@ -1,0 +1,64 @@
+// `perifx render`: turns a run directory into PNG frames (POV-Ray or the built-in rasterizer) and
+// optionally an MP4 (ffmpeg).
+#pragma once
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "render/render.hpp"
+#include "render/run_data.hpp"
+
+namespace perifx::render {
+
+enum class Backend { automatic, povray, builtin };
+enum class ColorBy { automatic, damage, material, none };  // automatic: damage when written, else material
+
+struct RenderProgress {
+  std::size_t frame = 0, frames = 0;  // frames done, of frames
+  std::uint64_t index = 0;            // run frame number just written
+  double wall_seconds = 0.0, eta_seconds = 0.0;
+};
+
+struct RenderOptions {
+  std::filesystem::path run_directory;
+  std::optional<std::filesystem::path> output_directory;  // default run_directory/render
+  int width = 1280, height = 720;
+  ColorBy color_by = ColorBy::automatic;
+  std::optional<std::uint64_t> first_frame, last_frame;   // inclusive run frame numbers
+  bool mp4 = false;
+  Backend backend = Backend::automatic;
+  std::optional<std::filesystem::path> scene_file;        // optional: projectile radii, ground plane
+  std::optional<double> projectile_radius;                // overrides a missing radius column
+  double particle_scale = 0.62;                            // sphere radius = scale * volume^(1/3)
+  std::function<void(const RenderProgress&)> on_frame;
+  std::function<void(const std::string&)> on_note;       // one-line notes (backend choice, fallbacks)
+};
+
+struct RenderSummary {
+  std::size_t frames = 0;
+  Backend backend = Backend::builtin;
+  std::filesystem::path output_directory;
+  std::optional<std::filesystem::path> movie;
+};
+
+// Throws RunDataError (bad run directory or frame files), io::IoError (cannot write),
+// std::runtime_error (a backend program failed; the message carries the end of its log).
+RenderSummary render_run(const RenderOptions& options);
+
+// The absolute path of an executable found on PATH, or empty.
+std::filesystem::path find_program(const std::string& name);
+
+// Builds the backend-neutral scene of one frame (exposed for the tests).
+struct FrameStyle {
+  ColorBy color_by = ColorBy::material;
+  double particle_scale = 0.62;
+  double fallback_radius = 0.01;    // particle radius when the frame has no volume field
+  double projectile_radius = 0.1;   // when projectiles.csv has no radius column
+};
+RenderScene frame_scene(const ParticleFrame* particles, const SurfaceFrame* surface,
+                        const std::vector<ProjectileState>& projectiles, const FrameStyle& style);
+
+}  // namespace perifx::render

@@ -1,0 +1,403 @@
+// perifx render: PNG encoder (decoded back by a small inflate written here), the built-in
+// rasterizer, camera framing, the run-directory readers and `perifx render` end to end (built-in
+// backend, so it runs without povray; the POV-Ray case skips when povray is not installed).
+#include <doctest/doctest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "io/io.hpp"
+#include "render/png.hpp"
+#include "render/render.hpp"
+#include "render/render_run.hpp"
+#include "render/run_data.hpp"
+
+namespace fs = std::filesystem;
+using namespace perifx;
+using namespace perifx::render;
+
+namespace {
+
+std::uint32_t be32(const std::string& s, std::size_t at) {
+  return std::uint32_t(std::uint8_t(s[at])) << 24 | std::uint32_t(std::uint8_t(s[at + 1])) << 16 |
+         std::uint32_t(std::uint8_t(s[at + 2])) << 8 | std::uint32_t(std::uint8_t(s[at + 3]));
+}
+
+// Inflate for stored and fixed-Huffman blocks (what the encoder emits), RFC 1951.
+struct Inflater {
+  const std::string& in;
+  std::size_t bitpos = 0;
+  std::uint32_t bits(int n) {
+    std::uint32_t v = 0;
+    for (int i = 0; i < n; ++i, ++bitpos) v |= std::uint32_t((std::uint8_t(in.at(bitpos / 8)) >> (bitpos % 8)) & 1u) << i;
+    return v;
+  }
+  std::uint32_t huff(int n) {  // n bits, MSB first
+    std::uint32_t v = 0;
+    for (int i = 0; i < n; ++i) v = (v << 1) | bits(1);
+    return v;
+  }
+  int literal() {
+    std::uint32_t c = huff(7);
+    if (c <= 0x17) return int(c) + 256;
+    c = (c << 1) | bits(1);
+    if (c >= 0x30 && c <= 0xBF) return int(c - 0x30);
+    if (c >= 0xC0 && c <= 0xC7) return int(c - 0xC0) + 280;
+    c = (c << 1) | bits(1);
+    return int(c - 0x190) + 144;
+  }
+  std::string run() {
+    static const int lbase[] = {3, 4, 5, 6, 7, 8, 9, 10, 11, 13, 15, 17, 19, 23, 27, 31, 35, 43, 51, 59, 67, 83, 99, 115, 131, 163, 195, 227, 258};
+    static const int lext[] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 0};
+    static const int dbase[] = {1, 2, 3, 4, 5, 7, 9, 13, 17, 25, 33, 49, 65, 97, 129, 193, 257, 385, 513, 769, 1025, 1537, 2049, 3073, 4097, 6145, 8193, 12289, 16385, 24577};
+    static const int dext[] = {0, 0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12, 12, 13, 13};
+    std::string out;
+    bool last = false;
+    while (!last) {
+      last = bits(1) != 0;
+      const auto type = bits(2);
+      if (type == 0) {
+        bitpos = (bitpos + 7) / 8 * 8;
+        const std::uint32_t len = bits(16);
+        bits(16);
+        out += in.substr(bitpos / 8, len);
+        bitpos += 8 * std::size_t(len);
+        continue;
+      }
+      REQUIRE(type == 1);
+      for (;;) {
+        const int sym = literal();
+        if (sym < 256) out.push_back(char(sym));
+        else if (sym == 256) break;
+        else {
+          const int li = sym - 257;
+          const int len = lbase[li] + int(bits(lext[li]));
+          const int di = int(huff(5));
+          const int dist = dbase[di] + int(bits(dext[di]));
+          REQUIRE(std::size_t(dist) <= out.size());
+          for (int k = 0; k < len; ++k) out.push_back(out[out.size() - std::size_t(dist)]);
+        }
+      }
+    }
+    return out;
+  }
+};
+
+struct Decoded {
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> rgb;
+};
+
+// Checks signature, chunk CRCs, IHDR and IEND, inflates IDAT and undoes the row filters.
+Decoded decode_png(const std::string& png) {
+  REQUIRE(png.size() > 8);
+  REQUIRE(png.compare(0, 8, std::string("\x89PNG\r\n\x1a\n", 8)) == 0);
+  Decoded d;
+  std::string idat;
+  bool iend = false;
+  for (std::size_t at = 8; at < png.size();) {
+    const std::uint32_t len = be32(png, at);
+    const std::string type = png.substr(at + 4, 4);
+    const std::string body = png.substr(at + 4, 4 + len);
+    CHECK(be32(png, at + 8 + len) == crc32(reinterpret_cast<const std::uint8_t*>(body.data()), body.size()));
+    if (type == "IHDR") {
+      d.width = int(be32(png, at + 8));
+      d.height = int(be32(png, at + 12));
+      CHECK(png[at + 16] == 8);
+      CHECK(png[at + 17] == 2);
+    } else if (type == "IDAT") {
+      idat += png.substr(at + 8, len);
+    } else if (type == "IEND") {
+      iend = true;
+      CHECK(at + 12 == png.size());
+    }
+    at += 12 + len;
+  }
+  CHECK(iend);
+  REQUIRE(idat.size() > 6);
+  CHECK((std::uint8_t(idat[0]) * 256 + std::uint8_t(idat[1])) % 31 == 0);
+  const std::string raw = Inflater{idat, 16}.run();
+  const std::size_t stride = std::size_t(d.width) * 3;
+  REQUIRE(raw.size() == (stride + 1) * std::size_t(d.height));
+  d.rgb.resize(stride * std::size_t(d.height));
+  for (int y = 0; y < d.height; ++y) {
+    const int filter = raw[std::size_t(y) * (stride + 1)];
+    for (std::size_t x = 0; x < stride; ++x) {
+      const int v = std::uint8_t(raw[std::size_t(y) * (stride + 1) + 1 + x]);
+      const int a = x >= 3 ? d.rgb[std::size_t(y) * stride + x - 3] : 0;
+      const int b = y > 0 ? d.rgb[std::size_t(y - 1) * stride + x] : 0;
+      const int c = (y > 0 && x >= 3) ? d.rgb[std::size_t(y - 1) * stride + x - 3] : 0;
+      int pred = 0;
+      if (filter == 1) pred = a;
+      else if (filter == 2) pred = b;
+      else if (filter == 3) pred = (a + b) / 2;
+      else if (filter == 4) {
+        const int p = a + b - c, pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
+        pred = (pa <= pb && pa <= pc) ? a : (pb <= pc ? b : c);
+      }
+      d.rgb[std::size_t(y) * stride + x] = std::uint8_t(v + pred);
+    }
+  }
+  return d;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("perifx_render_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+int run_cli(const std::string& args, std::string* output = nullptr) {
+  const std::string cmd = std::string(PERIFX_CLI) + " " + args + " 2>&1";
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  REQUIRE(pipe != nullptr);
+  std::string out;
+  std::array<char, 4096> buf;
+  while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
+  const int status = ::pclose(pipe);
+  if (output) *output = out;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// A ball of particles of radius 0.5 at the origin, on a jittered lattice.
+RenderScene particle_ball() {
+  RenderScene s;
+  const double h = 0.1;
+  for (int i = -5; i <= 5; ++i)
+    for (int j = -5; j <= 5; ++j)
+      for (int k = -5; k <= 5; ++k) {
+        const Vec3 p(i * h, j * h, k * h);
+        if (p.norm() <= 0.5) s.spheres.push_back({p, 0.6 * h, damage_color(p.norm())});
+      }
+  return s;
+}
+
+std::array<std::uint8_t, 3> pixel(const Image& img, int x, int y) {
+  const std::size_t i = (std::size_t(y) * std::size_t(img.width) + std::size_t(x)) * 3;
+  return {img.rgb[i], img.rgb[i + 1], img.rgb[i + 2]};
+}
+
+}  // namespace
+
+TEST_CASE("render: PNG encoder output decodes back to the same pixels") {
+  const int w = 37, h = 23;
+  std::vector<std::uint8_t> rgb(std::size_t(w) * h * 3);
+  std::uint32_t state = 12345;
+  for (std::size_t i = 0; i < rgb.size(); ++i) {
+    state = state * 1664525u + 1013904223u;
+    // Half noise, half smooth and repetitive, so literals, matches and every filter all occur.
+    rgb[i] = (i / 3) % w < std::size_t(w / 2) ? std::uint8_t(state >> 24) : std::uint8_t((i / 3) % w * 5 + (i % 3) * 40);
+  }
+  const std::string png = encode_png(w, h, rgb);
+  const Decoded d = decode_png(png);
+  CHECK(d.width == w);
+  CHECK(d.height == h);
+  CHECK(d.rgb == rgb);
+
+  // Long runs compress through length/distance pairs, including the 258 maximum.
+  std::vector<std::uint8_t> flat(std::size_t(400) * 300 * 3, 200);
+  const std::string flat_png = encode_png(400, 300, flat);
+  CHECK(flat_png.size() < flat.size() / 50);
+  CHECK(decode_png(flat_png).rgb == flat);
+}
+
+TEST_CASE("render: built-in rasterizer draws a particle ball over the background") {
+  RenderScene s = particle_ball();
+  s.camera = frame_box(Vec3::Constant(-0.55), Vec3::Constant(0.55), 4.0 / 3.0);
+  s.lights = default_lights(s.camera, Vec3::Constant(-0.55), Vec3::Constant(0.55));
+  RenderScene empty = s;
+  empty.spheres.clear();
+  const Image img = rasterize(s, 64, 48), bg = rasterize(empty, 64, 48);
+  REQUIRE(img.width == 64);
+  REQUIRE(img.height == 48);
+  REQUIRE(img.rgb.size() == 64u * 48u * 3u);
+  CHECK(pixel(img, 32, 24) != pixel(bg, 32, 24));
+  CHECK(pixel(img, 0, 0) == pixel(bg, 0, 0));
+  CHECK(pixel(img, 63, 47) == pixel(bg, 63, 47));
+  // Lit, not black: the ball's center pixel has real brightness.
+  const auto c = pixel(img, 32, 24);
+  CHECK(int(c[0]) + c[1] + c[2] > 120);
+
+  const fs::path dir = temp_dir("png");
+  write_png(dir / "ball.png", img.width, img.height, img.rgb);
+  const Decoded d = decode_png(slurp(dir / "ball.png"));
+  CHECK(d.width == 64);
+  CHECK(d.height == 48);
+  CHECK(d.rgb == img.rgb);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("render: default camera framing keeps every point of the box in the image") {
+  for (const Vec3& size : {Vec3(1, 1, 1), Vec3(4, 0.2, 0.3), Vec3(0.1, 3, 0.1), Vec3(2, 1, 0.05)}) {
+    const Vec3 lo = Vec3(0.3, -1.0, 2.0), hi = lo + size;
+    for (const double aspect : {16.0 / 9.0, 1.0, 0.6}) {
+      const int w = int(std::lround(400 * aspect)), h = 400;
+      const Camera cam = frame_box(lo, hi, double(w) / h);
+      double min_x = 1e9, max_x = -1e9, min_y = 1e9, max_y = -1e9;
+      for (int k = 0; k < 8; ++k) {
+        const Vec3 corner((k & 1) ? hi.x() : lo.x(), (k & 2) ? hi.y() : lo.y(), (k & 4) ? hi.z() : lo.z());
+        const Vec3 p = project(cam, w, h, corner);
+        CHECK(p.z() > 0);
+        min_x = std::min(min_x, p.x()), max_x = std::max(max_x, p.x());
+        min_y = std::min(min_y, p.y()), max_y = std::max(max_y, p.y());
+      }
+      CHECK(min_x >= 0);
+      CHECK(max_x <= w);
+      CHECK(min_y >= 0);
+      CHECK(max_y <= h);
+      // Tight: the box fills most of one image dimension.
+      CHECK(std::max((max_x - min_x) / w, (max_y - min_y) / h) > 0.7);
+      // Elevated 3/4 view with Y up.
+      CHECK(cam.position.y() > 0.5 * (lo.y() + hi.y()));
+    }
+  }
+}
+
+TEST_CASE("render: readers round-trip VTU particles and PLY/OBJ surfaces with crack flags") {
+  const fs::path dir = temp_dir("readers");
+  const std::vector<Vec3> pts = {Vec3(0, 1, 2), Vec3(-1, 0.5, 3), Vec3(4, 5, -6)};
+  const std::vector<double> volume = {1e-3, 2e-3, 3e-3}, damage = {0.0, 0.5, 1.0};
+  const std::vector<std::uint32_t> material = {0, 1, 2};
+  const std::vector<Vec3> velocity(3, Vec3(1, 2, 3));
+  auto field = [](const char* name, FieldType t, int comps, const void* data) {
+    FieldView f;
+    f.name = name;
+    f.type = t;
+    f.components = comps;
+    f.data = data;
+    f.count = 3;
+    return f;
+  };
+  const std::vector<FieldView> fields = {field("velocity", FieldType::f64, 3, velocity.data()),
+                                         field("volume", FieldType::f64, 1, volume.data()),
+                                         field("damage", FieldType::f64, 1, damage.data()),
+                                         field("material_id", FieldType::u32, 1, material.data())};
+  io::write_vtu_points(dir / "particles.0000.vtu", pts, fields);
+  io::write_ply_points(dir / "particles.0001.ply", pts, fields);
+  for (const auto& file : {dir / "particles.0000.vtu", dir / "particles.0001.ply"}) {
+    CAPTURE(file);
+    const ParticleFrame f = read_particles(file);
+    REQUIRE(f.position.size() == 3);
+    CHECK((f.position[2] - pts[2]).norm() < 1e-6);
+    REQUIRE(f.volume.size() == 3);
+    CHECK(f.volume[1] == doctest::Approx(2e-3));
+    CHECK(f.damage.at(2) == doctest::Approx(1.0));
+    CHECK(f.material.at(2) == 2u);
+  }
+
+  std::ofstream(dir / "surface.0002.obj") << "mtllib surface.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+                                             "g surface\nusemtl surface\nf 1 2 3\ng crack\nusemtl crack\nf 2 4 3\n";
+  const SurfaceFrame obj = read_surface(dir / "surface.0002.obj");
+  REQUIRE(obj.triangle.size() == 2);
+  REQUIRE(obj.crack.size() == 2);
+  CHECK(obj.crack[0] == 0);
+  CHECK(obj.crack[1] == 1);
+
+  {  // binary PLY surface as engine/io writes it: list uchar int vertex_indices, uchar crack, uint fragment
+    std::ofstream ply(dir / "surface.0003.ply", std::ios::binary);
+    ply << "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+           "property float z\nelement face 2\nproperty list uchar int vertex_indices\nproperty uchar crack\n"
+           "property uint fragment\nend_header\n";
+    for (const float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f, 1.f, 1.f, 0.f}) ply.write(reinterpret_cast<const char*>(&v), 4);
+    for (int face = 0; face < 2; ++face) {
+      const std::uint8_t n = 3, crack = std::uint8_t(face);
+      const std::int32_t idx[2][3] = {{0, 1, 2}, {1, 3, 2}};
+      const std::uint32_t fragment = 7;
+      ply.write(reinterpret_cast<const char*>(&n), 1);
+      ply.write(reinterpret_cast<const char*>(idx[face]), 12);
+      ply.write(reinterpret_cast<const char*>(&crack), 1);
+      ply.write(reinterpret_cast<const char*>(&fragment), 4);
+    }
+  }
+  const SurfaceFrame ply = read_surface(dir / "surface.0003.ply");
+  REQUIRE(ply.triangle.size() == 2);
+  CHECK(ply.triangle[1] == std::array<std::uint32_t, 3>{1, 3, 2});
+  REQUIRE(ply.crack.size() == 2);
+  CHECK(ply.crack[1] == 1);
+  const RenderScene scene = frame_scene(nullptr, &ply, {}, FrameStyle{});
+  REQUIRE(scene.triangles.size() == 2);
+  CHECK(scene.triangles[0].color != scene.triangles[1].color);  // crack faces in their own colour
+
+  const RunDirectory run = scan_run_directory(dir);
+  REQUIRE(run.frames.size() == 4);
+  CHECK(run.frames[2].surface.filename() == "surface.0002.obj");
+  CHECK(run.frames[1].particles.filename() == "particles.0001.ply");
+  fs::remove_all(dir);
+}
+
+TEST_CASE("render: perifx render turns a two-frame run into PNGs with the built-in backend") {
+  const fs::path dir = temp_dir("cli");
+  std::ofstream(dir / "scene.json") << R"({
+    "time": { "dt": 1e-4, "duration": 0.02, "frame_rate": 200 },
+    "materials": { "gel": { "density": 1000, "youngs_modulus": 1e6, "poisson_ratio": 0.3 } },
+    "bodies": [ { "material": "gel", "geometry": { "type": "box", "size": [0.2, 0.1, 0.1], "edge_length": 0.025 },
+                  "transform": { "translate": [0, 0.2, 0] }, "velocity": [0, -1, 0] } ],
+    "projectiles": [ { "type": "sphere", "center": [0, 0.4, 0], "radius": 0.05, "density": 1000, "velocity": [0, -1, 0] } ]
+  })";
+  std::string out;
+  REQUIRE(run_cli("run " + (dir / "scene.json").string() + " --out " + (dir / "run").string() + " --frames 2 --quiet", &out) == 0);
+  const int rc = run_cli("render " + (dir / "run").string() + " --backend builtin --width 96 --height 64 --mp4", &out);
+  CAPTURE(out);
+  REQUIRE(rc == 0);
+  for (const char* name : {"frame.0000.png", "frame.0001.png", "frame.0002.png"}) {
+    CAPTURE(name);
+    const Decoded d = decode_png(slurp(dir / "run" / "render" / name));
+    CHECK(d.width == 96);
+    CHECK(d.height == 64);
+  }
+  CHECK(out.find("frame 3/3") != std::string::npos);
+  if (!find_program("ffmpeg").empty()) CHECK(fs::file_size(dir / "run" / "render" / "movie.mp4") > 0);
+
+  // A frame range and an output directory; bad options are usage errors; a missing run is exit 2.
+  REQUIRE(run_cli("render " + (dir / "run").string() + " --backend builtin --width 32 --height 32 --frames 1:1 --quiet --out " +
+                  (dir / "only1").string()) == 0);
+  CHECK(fs::exists(dir / "only1" / "frame.0001.png"));
+  CHECK_FALSE(fs::exists(dir / "only1" / "frame.0000.png"));
+  CHECK(run_cli("render " + (dir / "run").string() + " --color-by rainbow") == 1);
+  CHECK(run_cli("render " + (dir / "nothing").string() + " --backend builtin") == 2);
+  CHECK(run_cli("render " + (dir / "run").string() + " --frames 7:9 --backend builtin") == 2);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("render: POV-Ray backend renders a frame (skipped without povray)") {
+  RenderScene s = particle_ball();
+  s.metal.push_back({Vec3(0.8, 0, 0), 0.2, Vec3::Ones()});
+  s.triangles.push_back({Vec3(-1, -0.6, -1), Vec3(1, -0.6, -1), Vec3(0, -0.6, 1), Vec3(0.9, 0.4, 0.1)});
+  s.ground_y = -0.6;
+  s.camera = frame_box(Vec3::Constant(-1), Vec3::Constant(1), 1.5);
+  s.lights = default_lights(s.camera, Vec3::Constant(-1), Vec3::Constant(1));
+  const PovrayFiles files = povray_scene(s, 48, 32, "data.inc");
+  CHECK(files.scene.find("camera") != std::string::npos);
+  CHECK(files.scene.find("#include \"data.inc\"") != std::string::npos);
+  CHECK(files.data.find("mesh2") != std::string::npos);
+  CHECK(files.data.find("PFX_Metal") != std::string::npos);
+  if (find_program("povray").empty()) {
+    MESSAGE("povray not installed: skipping the POV-Ray render");
+    return;
+  }
+  const fs::path dir = temp_dir("povray");
+  std::ofstream(dir / "scene.pov") << files.scene;
+  std::ofstream(dir / "data.inc") << files.data;
+  const std::string cmd = "cd " + dir.string() + " && povray +Iscene.pov +Oout.png +W48 +H32 -D +FN -V -GA >/dev/null 2>&1";
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  const std::string png = slurp(dir / "out.png");
+  REQUIRE(png.size() > 24);
+  CHECK(be32(png, 16) == 48);
+  CHECK(be32(png, 20) == 32);
+  fs::remove_all(dir);
+}
