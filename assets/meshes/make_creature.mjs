@@ -77,7 +77,31 @@ function voxelize(h) {
     const c = [BOX.min[0] + (i + 0.5) * h, BOX.min[1] + (j + 0.5) * h, BOX.min[2] + (k + 0.5) * h];
     if (creature(c) < 0) { inside[i + n[0] * (j + n[1] * k)] = 1; count++; }
   }
-  return { h, n, inside, count };
+  // Keep the largest face-connected (6-neighbour) set of voxels: at coarse sizes a thin ear or the
+  // tail tip can touch the body along a voxel edge only, which would make it a separate fragment.
+  const label = new Int32Array(inside.length).fill(-1);
+  let best = -1, bestSize = 0;
+  for (let s0 = 0, lab = 0; s0 < inside.length; s0++) {
+    if (!inside[s0] || label[s0] >= 0) continue;
+    const stack = [s0];
+    label[s0] = lab;
+    let size = 0;
+    while (stack.length) {
+      const v = stack.pop();
+      size++;
+      const i = v % n[0], j = Math.floor(v / n[0]) % n[1], k = Math.floor(v / (n[0] * n[1]));
+      for (const [di, dj, dk] of [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]]) {
+        const a = i + di, b = j + dj, c = k + dk;
+        if (a < 0 || b < 0 || c < 0 || a >= n[0] || b >= n[1] || c >= n[2]) continue;
+        const w = a + n[0] * (b + n[1] * c);
+        if (inside[w] && label[w] < 0) { label[w] = lab; stack.push(w); }
+      }
+    }
+    if (size > bestSize) { bestSize = size; best = lab; }
+    lab++;
+  }
+  for (let v = 0; v < inside.length; v++) if (inside[v] && label[v] !== best) inside[v] = 0;
+  return { h, n, inside, count: bestSize };
 }
 function tetVolume(x, t) {
   const [a, b, c, d] = t.map((i) => x[i]);

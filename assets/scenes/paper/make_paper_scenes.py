@@ -408,7 +408,7 @@ def fig03_creature_release(v):
                  "at 0.3 s and the body swings and deforms elastically without numerical fracture. Table 1 armadillo: kappa "
                  "6.3e4 kPa, mu 3.8e4 kPa, rho 1000, delta 1.50 lambda, dt 1e-4, no plasticity or fracture. The mesh is "
                  f"scaled x{CREATURE_SCALE:g} (3.8 m tall): at 4.2e5 particles the paper's dt is stable only for a creature "
-                 "this large, so we take that as the paper's size. Particles: full 424086 (paper 4.2e5), preview 10122 "
+                 "this large, so we take that as the paper's size. Particles: full 424086 (paper 4.2e5), preview 10092 "
                  "(creature_coarse: the preview needs ~3500 steps at the paper's dt). The preview compresses the timeline: "
                  "ramp 0.15 s, release at 0.2 s, end at 0.35 s.",
                  1e-4, dur, 30, mats, [creature_body(mesh)], boundary_conditions=bcs)
@@ -445,7 +445,7 @@ def fig14_creature_tear(v):
                  "Paper Fig. 14 (and 18): the creature (procedural armadillo stand-in, scaled x5, 3.8 m tall) is stretched by "
                  "its hands (4 m/s outward, 1 m/s up) and feet (2 m/s outward and down) until the limbs tear off; cracks grow "
                  "progressively. Table 1 armadillo tear: kappa 6.3e4 kPa, mu 3.8e4 kPa, rho 1000, delta 1.50 lambda, "
-                 "s_c 0.61, dt 1e-4. No gravity. Particles: full 424086 (paper 4.2e5), preview 10122 (creature_coarse)."
+                 "s_c 0.61, dt 1e-4. No gravity. Particles: full 424086 (paper 4.2e5), preview 10092 (creature_coarse)."
                  + PREVIEW_SHORT[v],
                  1e-4, 1.0 if v == "full" else 0.35, 30, mats, [creature_body(mesh)], gravity=(0, 0, 0), boundary_conditions=bcs)
 
