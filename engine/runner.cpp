@@ -6,8 +6,10 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "compare.hpp"
 #include "io/io.hpp"
 #include "world_state.hpp"
+#include "systems/systems.hpp"
 
 namespace perifx {
 namespace {
@@ -36,9 +38,9 @@ std::vector<FieldView> selected_fields(const World& world) {
   return out;
 }
 
-std::string frame_name(std::uint64_t frame, const char* ext) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "particles.%04llu.%s", static_cast<unsigned long long>(frame), ext);
+std::string frame_name(std::uint64_t frame, const char* ext, const char* stem = "particles") {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%s.%04llu.%s", stem, static_cast<unsigned long long>(frame), ext);
   return buf;
 }
 
@@ -60,6 +62,13 @@ RunSummary run_world(World& world, const RunOptions& options) {
   const std::uint64_t first_step = world.step_count();
   const std::uint64_t total_steps = step_of_frame(frames);
   io::PvdSeries pvd(summary.output_directory / "particles.pvd");
+  io::PvdSeries surface_pvd(summary.output_directory / "surface.pvd");
+  io::PvdSeries tets_pvd(summary.output_directory / "tets.pvd");
+  const bool mesh_output = sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || sc.output.tets_vtu;
+  if (mesh_output && world.state().embedded.tets.empty())
+    throw std::invalid_argument("output formats obj/surface_ply/surface_vtp/tets_vtu need the embedded tet mesh "
+                                "(solver 'peridynamics')");
+  if (sc.output.obj) io::write_surface_mtl(summary.output_directory / "surface.mtl");
   const std::size_t bonds = world.bond_count();
 
   double step_wall = 0.0, output_wall = 0.0;
@@ -73,6 +82,29 @@ RunSummary run_world(World& world, const RunOptions& options) {
       pvd.add(world.time(), frame_name(k, "vtu"));
     }
     if (sc.output.ply) io::write_ply_points(summary.output_directory / frame_name(k, "ply"), points, fields);
+    // Embedded tet mesh (§5.2): the split mesh's surface (original + crack triangles) and its tets.
+    if (mesh_output) {
+      WorldState& ws = world.state_mutable();
+      systems::update_mesh_vertices(ws, 0.0);  // dt = 0: positions current without moving them again
+      std::vector<std::uint32_t> fragment;
+      systems::compute_fragments(ws, fragment);
+      const auto& dir = summary.output_directory;
+      if (sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp) {
+        SurfaceMesh surface;
+        systems::extract_surface(ws, &fragment, surface);
+        if (sc.output.obj) io::write_obj_surface(dir / frame_name(k, "obj", "surface"), surface);
+        if (sc.output.surface_ply) io::write_ply_surface(dir / frame_name(k, "ply", "surface"), surface);
+        if (sc.output.surface_vtp) {
+          io::write_vtp_surface(dir / frame_name(k, "vtp", "surface"), surface);
+          surface_pvd.add(world.time(), frame_name(k, "vtp", "surface"));
+        }
+      }
+      if (sc.output.tets_vtu) {
+        io::write_vtu_tets(dir / frame_name(k, "vtu", "tets"), ws.embedded.vertices, ws.embedded.tets, ws.state.damage,
+                           fragment);
+        tets_pvd.add(world.time(), frame_name(k, "vtu", "tets"));
+      }
+    }
     // Rigid projectiles: one CSV row per projectile and frame; the whole file is rewritten
     // atomically each frame, so a reader never sees a half-written row.
     if (const auto& projectiles = world.state().projectiles.bodies; !projectiles.empty()) {
@@ -93,6 +125,9 @@ RunSummary run_world(World& world, const RunOptions& options) {
   };
 
   write_frame(0);
+  // mesh.json: what the particles are and the tet connectivity, so `perifx compare` can map a
+  // peridynamic run (tet barycenters) onto an FEM run (mesh vertices) of the same scene.
+  write_run_mesh(world.state(), summary.output_directory);
   for (std::uint64_t k = 1; k <= frames; ++k) {
     const std::uint64_t target = first_step + step_of_frame(k);
     const auto t0 = clock::now();

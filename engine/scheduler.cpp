@@ -22,6 +22,7 @@ const char* component_name(Component c) {
     case Component::external_force: return "external_force";
     case Component::contact_force: return "contact_force";
     case Component::projectiles: return "projectiles";
+    case Component::mesh: return "mesh";
     case Component::count_: break;
   }
   return "?";

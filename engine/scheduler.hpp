@@ -32,6 +32,7 @@ enum class Component : std::uint8_t {
   external_force,
   contact_force,
   projectiles,
+  mesh,  // the embedded (cracking) tet mesh: WorldState::embedded
   count_  // number of components
 };
 const char* component_name(Component c);

@@ -6,6 +6,8 @@
 
 #include "components/bonds.hpp"
 #include "components/contact.hpp"
+#include "components/embedded_mesh.hpp"
+#include "components/fem.hpp"
 #include "components/particles.hpp"
 #include "components/tet_mesh.hpp"
 #include "scene/scene.hpp"
@@ -50,8 +52,12 @@ struct WorldState {
   ParticleModel model;
   ParticleState state;
   Bonds bonds;
-  // The embedded tet mesh of all bodies; tet i carries particle i (paper §5.2).
+  // The embedded tet mesh of all bodies; tet i carries particle i (paper §5.2). In FEM mode
+  // (scene.solver fem_*) the particles are the mesh vertices instead: vertex v is particle v.
   TetMesh mesh;
+  // The same mesh as it cracks: split vertices, crack faces, moving vertices (systems/mesh_*.cpp).
+  EmbeddedMesh embedded;
+  FemModel fem;                   // FEM mode only (systems/fem_setup.cpp, fem_force.cpp)
   std::vector<BodyInfo> bodies;
   BoundaryConditionSet boundary;
   DerivedFields derived;

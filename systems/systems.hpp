@@ -4,6 +4,7 @@
 // Per-step order (the scheduler derives the actual graph from the declared reads/writes):
 //   kick_begin → boundary_conditions → drift → colliders → dilatation → (plasticity) → elastic_force
 //   external_loads (independent of the chain above)  → kick_end → (fracture → damage)
+//   → (crack_faces → mesh_split) → mesh_vertices      (embedded mesh, §5.2)
 // i.e. velocity Verlet (kick–drift–kick), with constraints applied to the velocity before the drift.
 #pragma once
 #include <vector>
@@ -25,6 +26,11 @@ void compute_model_constants(WorldState& world);
 // contact.cpp / projectiles.cpp: resolve the scene's contact settings and projectiles, size buffers.
 void setup_contact(WorldState& world);
 void setup_projectiles(WorldState& world);
+// embedded_mesh.cpp: WorldState::embedded from WorldState::mesh, its face adjacency and the bonds
+// (after initial cracks: face pairs without a bond start as crack faces). Run after the bonds exist.
+void setup_embedded_mesh(WorldState& world, const std::vector<std::array<std::int32_t, 4>>& tet_face_neighbors);
+// Embedding weights of vertex v over the particles of its tet group (grown by rings when degenerate).
+void embed_vertex(WorldState& world, std::uint32_t v, const std::vector<std::uint32_t>& group);
 
 // ---- kernels (also used by the stability estimate and the tests) ----
 // θ_i (Eq 6) and P_i for positions y; theta and coupling sized particle count.
@@ -50,6 +56,20 @@ void compute_damage(WorldState& world);
 // fragments.cpp: connected components of alive bonds; id = smallest particle index in the
 // component. Returns the number of components.
 std::size_t compute_fragments(const WorldState& world, std::vector<std::uint32_t>& fragment_id);
+// Embedded mesh (§5.2; crack_faces.cpp, mesh_split.cpp, mesh_vertices.cpp, mesh_surface.cpp):
+// new crack faces from broken face-pair bonds (returns how many); vertex splitting of the fresh
+// crack faces (returns copies made); vertex motion (Eq 20–22, or the embedding); boundary triangles.
+std::size_t collect_crack_faces(WorldState& world);
+std::size_t split_mesh_vertices(WorldState& world);
+void update_mesh_vertices(WorldState& world, double dt);
+bool face_pair_shared(const EmbeddedMesh& mesh, std::uint32_t pair);
+void extract_surface(const WorldState& world, const std::vector<std::uint32_t>* fragment_id, SurfaceMesh& out);
+// fem_setup.cpp / fem_force.cpp: the FEM reference solver (components/fem.hpp), particles = vertices.
+void setup_fem(WorldState& world);
+void compute_fem_force(const WorldState& world, const std::vector<Vec3>& y, std::vector<Vec3>& corner_scratch,
+                       std::vector<Vec3>& force);
+double fem_elastic_energy(const WorldState& world, const std::vector<Vec3>& y);
+Mat3 polar_rotation(const Mat3& F);  // rotation factor R of F = R S, det R = +1
 
 // ---- per-step systems ----
 SystemDecl kick_begin_system(WorldState& world);
@@ -66,5 +86,9 @@ SystemDecl projectile_contact_system(WorldState& world);
 SystemDecl plasticity_system(WorldState& world);
 SystemDecl fracture_system(WorldState& world);
 SystemDecl damage_system(WorldState& world);
+SystemDecl crack_face_system(WorldState& world);
+SystemDecl mesh_split_system(WorldState& world);
+SystemDecl mesh_vertex_system(WorldState& world);
+SystemDecl fem_force_system(WorldState& world);  // FEM mode: replaces dilatation + elastic_force
 
 }  // namespace perifx::systems

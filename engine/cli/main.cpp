@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "compare.hpp"
 #include "geometry/geometry.hpp"
 #include "io/io.hpp"
 #include "perifx/world.hpp"
@@ -24,8 +25,11 @@ enum Exit { kOk = 0, kUsage = 1, kScene = 2, kOutput = 3, kUnstable = 4, kIntern
 
 const std::string kUsageText = std::string(
     "usage: perifx <command> [options]\n"
-    "  run SCENE.json [--out DIR] [--frames N] [--threads N] [--quiet]\n"
-    "                      simulate and write frames (VTU + PVD for ParaView, PLY for Houdini/Blender)\n"
+    "  run SCENE.json [--out DIR] [--frames N] [--threads N] [--quiet] [--solver S] [--dt SECONDS]\n"
+    "                      simulate and write frames (VTU + PVD for ParaView, PLY for Houdini/Blender);\n"
+    "                      --solver peridynamics|fem_linear|fem_corotated and --dt override the scene\n"
+    "  compare RUN_A RUN_B position deviation of run B from reference run A per frame, over A's\n"
+    "                      bounding-box diagonal at frame 0 (paper §6); writes RUN_A/compare.csv\n"
     "  check SCENE.json    validate the scene without running it\n"
     "  info SCENE.json [--threads N]\n"
     "                      particles, bonds, memory and the stable time step\n"
@@ -38,6 +42,9 @@ struct Args {
   std::optional<std::string> out;
   std::optional<std::uint64_t> frames;
   std::optional<int> threads;
+  std::optional<std::string> solver;
+  std::optional<double> dt;
+  std::string second;  // compare: RUN_B
   bool quiet = false;
 };
 
@@ -75,10 +82,23 @@ Args parse(int argc, char** argv) {
     else if (arg == "--frames") a.frames = static_cast<std::uint64_t>(parse_count(arg, value(), 1));
     else if (arg == "--threads") a.threads = static_cast<int>(parse_count(arg, value(), 1));
     else if (arg == "--quiet") a.quiet = true;
+    else if (arg == "--solver") {
+      a.solver = value();
+      if (*a.solver != "peridynamics" && *a.solver != "fem_linear" && *a.solver != "fem_corotated")
+        usage_error("--solver expects peridynamics, fem_linear or fem_corotated, got '" + *a.solver + "'");
+    } else if (arg == "--dt") {
+      const std::string v = value();
+      char* end = nullptr;
+      a.dt = std::strtod(v.c_str(), &end);
+      if (end != v.c_str() + v.size() || !(*a.dt > 0.0) || !std::isfinite(*a.dt))
+        usage_error("--dt expects a positive number of seconds, got '" + v + "'");
+    }
     else if (!arg.empty() && arg[0] == '-') usage_error("unknown option '" + arg + "'");
     else if (a.scene.empty()) a.scene = arg;
+    else if (a.command == "compare" && a.second.empty()) a.second = arg;
     else usage_error("unexpected argument '" + arg + "'");
   }
+  if (a.command == "compare" && a.second.empty()) usage_error("'compare' needs two run directories");
   if (a.command != "spec" && a.scene.empty()) usage_error("'" + a.command + "' needs a scene file");
   return a;
 }
@@ -102,7 +122,43 @@ std::string clock_text(double seconds) {
 perifx::scene::Scene load(const Args& a) {
   auto sc = perifx::scene::load_scene_file(a.scene);
   if (a.threads) sc.threads = *a.threads;
+  if (a.solver) {
+    using perifx::scene::Solver;
+    sc.solver = *a.solver == "fem_linear" ? Solver::fem_linear
+                : *a.solver == "fem_corotated" ? Solver::fem_corotated : Solver::peridynamics;
+  }
+  if (a.dt) sc.time.dt = *a.dt;
   return sc;
+}
+
+// compare RUN_A RUN_B: exit 2 when the runs cannot be read or do not match.
+int cmd_compare(const Args& a) {
+  try {
+    const auto r = perifx::compare_runs(a.scene, a.second);
+    char buf[256];
+    std::cout << "reference (A)    " << a.scene << " (" << r.solver_a << ")\n";
+    std::cout << "compared  (B)    " << a.second << " (" << r.solver_b << ")\n";
+    std::cout << "mapping          " << r.mapping << "\n";
+    std::snprintf(buf, sizeof buf, "points           %zu per frame; diagonal d = %.6g m (A, frame 0)\n", r.points, r.diagonal);
+    std::cout << buf;
+    if (r.frames_a != r.frames_b)
+      std::cout << "note             frame counts differ (" << r.frames_a << " vs " << r.frames_b << "); compared the first "
+                << r.frames.size() << "\n";
+    std::cout << "frame     time [s]   max |dx|/d   mean |dx|/d\n";
+    for (std::size_t k = 0; k < r.frames.size(); ++k) {
+      std::snprintf(buf, sizeof buf, "%5zu  %11.5g  %11.4e  %11.4e\n", k, r.frames[k].time_a, r.frames[k].max_error,
+                    r.frames[k].mean_error);
+      std::cout << buf;
+    }
+    std::snprintf(buf, sizeof buf, "overall              %11.4e  %11.4e   (max %.3g%%, mean %.3g%% of the diagonal)\n",
+                  r.max_error, r.mean_error, 100.0 * r.max_error, 100.0 * r.mean_error);
+    std::cout << buf;
+    perifx::write_compare_csv(r, std::filesystem::path(a.scene) / "compare.csv");
+    return kOk;
+  } catch (const perifx::CompareError& e) {
+    std::cerr << "perifx: compare: " << e.what() << "\n";
+    return kScene;
+  }
 }
 
 int cmd_check(const Args& a) {
@@ -199,6 +255,7 @@ int main(int argc, char** argv) {
   const Args a = parse(argc, argv);
   try {
     if (a.command == "run") return cmd_run(a);
+    if (a.command == "compare") return cmd_compare(a);
     if (a.command == "check") return cmd_check(a);
     if (a.command == "info") return cmd_info(a);
     if (a.command == "spec") {

@@ -1,6 +1,9 @@
-// Tetrahedral meshes for bodies: a built-in structured mesher for primitives, TetGen file input,
+// Tetrahedral meshes for bodies: a built-in structured mesher for primitives, TetGen and Gmsh file
+// input, closed surfaces (OBJ/PLY/STL/OFF) filled with tets by the external `tetgen` program,
 // and the mesh measures the model needs (volumes, mean edge length λ, face adjacency, Morton order).
 #pragma once
+#include <array>
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -28,6 +31,54 @@ TetMesh mesh_cylinder(double radius, double height, int axis, double cell);
 // TetGen .node/.ele (1- or 0-based, optional attributes and markers). `node_file` names the .node
 // file; the .ele beside it is read. Negatively oriented tets are flipped; degenerate ones are errors.
 TetMesh read_tetgen(const std::filesystem::path& node_file);
+
+// Gmsh .msh, ASCII format 2.2 or 4.1. Only tetrahedra are read (element type 4, and the corners of
+// 10-node type 11); points, lines, triangles and other elements are ignored, as are nodes no tet uses.
+// Node tags may be sparse. Tets are oriented and checked as read_tetgen does.
+TetMesh read_gmsh(const std::filesystem::path& file);
+// Every tet loader (read_tetgen, read_gmsh, mesh_surface) also rejects meshes whose tets form more
+// than one piece (groups sharing no vertex): "mesh has K disconnected pieces; split them into
+// separate bodies". Tets attached to the rest only by an edge or a vertex are accepted.
+
+// A triangulated surface (polygons of the input are split into fans).
+struct SurfaceMesh {
+  std::vector<Vec3> vertices;
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+};
+
+// Surface readers. OBJ: v/f lines ("f 1/2/3", negative indices; vt/vn/groups ignored). PLY: ASCII or
+// binary (little or big endian), "vertex" x/y/z and "face" index lists. STL: ASCII or binary;
+// coincident vertices are merged within 1e-6 of the bounding-box diagonal and triangles that collapse
+// are dropped. OFF (also COFF/NOFF). read_surface picks the reader by extension (.obj .ply .stl .off).
+SurfaceMesh read_obj(const std::filesystem::path& file);
+SurfaceMesh read_ply(const std::filesystem::path& file);
+SurfaceMesh read_stl(const std::filesystem::path& file);
+SurfaceMesh read_off(const std::filesystem::path& file);
+SurfaceMesh read_surface(const std::filesystem::path& file);
+
+// Checks that the surface bounds one solid and orients it outward, in place. Errors (prefixed with
+// `source`): zero-area triangles, open surfaces (boundary edges), non-manifold edges (> 2 triangles),
+// non-orientable surfaces, several disconnected pieces. Inconsistently oriented triangles are flipped
+// to agree with their neighbors, then all of them if the enclosed volume comes out negative.
+void check_closed_surface(SurfaceMesh& surface, const std::string& source);
+// Signed volume enclosed by a closed surface (divergence theorem); > 0 when oriented outward.
+double enclosed_volume(const SurfaceMesh& surface);
+
+// How finely to fill a surface with tets: the first that is set wins. TetGen takes a volume bound,
+// not a size; the bound is calibrated (≈ 4.6 h³/(6√2) for a mean edge h, volume/particles for a
+// count) and then rescaled over up to two more runs toward the target. The surface's own triangles
+// are kept, so a surface finer than the target gives a finer mesh.
+struct SurfaceResolution {
+  double edge_length = 0.0;   // target mean tet edge h
+  long long particles = 0;    // target tet count
+  int resolution = 20;        // else h = longest bounding-box extent / resolution
+};
+// Tetrahedralizes a closed surface by running the `tetgen` program (`tetgen -pq1.414a<bound>` on a
+// .smesh in a private temp directory). Checks the surface first (check_closed_surface). Throws
+// GeometryError when `tetgen` is not on PATH or fails (with the tail of its output).
+TetMesh mesh_surface(SurfaceMesh surface, const SurfaceResolution& resolution, const std::string& source);
+// read_surface + mesh_surface.
+TetMesh load_surface(const std::filesystem::path& file, const SurfaceResolution& resolution);
 
 double tet_volume(const TetMesh& mesh, std::size_t tet);            // > 0 for valid tets
 Vec3 tet_barycenter(const TetMesh& mesh, std::size_t tet);

@@ -13,85 +13,13 @@
 
 #include <Eigen/Geometry>  // cross(); components/math.hpp only brings in Eigen/Core
 
-#include "geometry/geometry.hpp"
+#include "geometry/mesh_text.hpp"
 
 namespace perifx::geometry {
 
 namespace {
 
-// Walks a whole file's text line by line, yielding the whitespace-separated tokens of each
-// non-empty line ('#' starts a comment that runs to the end of the line).
-class TokenLines {
- public:
-  TokenLines(const std::filesystem::path& path, const char* kind) : name_(path.string()) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw GeometryError("cannot open TetGen " + std::string(kind) + " file '" + name_ + "'");
-    text_.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    if (in.bad()) throw GeometryError("error reading '" + name_ + "'");
-  }
-
-  // Next line that has at least one token; false at end of file.
-  bool next(std::vector<std::string_view>& tokens) {
-    while (pos_ < text_.size()) {
-      std::size_t end = text_.find('\n', pos_);
-      if (end == std::string::npos) end = text_.size();
-      std::string_view line(text_.data() + pos_, end - pos_);
-      pos_ = end + 1;
-      ++line_;
-      if (const auto hash = line.find('#'); hash != std::string_view::npos) line = line.substr(0, hash);
-      tokens.clear();
-      std::size_t i = 0;
-      while (i < line.size()) {
-        while (i < line.size() && is_space(line[i])) ++i;
-        std::size_t j = i;
-        while (j < line.size() && !is_space(line[j])) ++j;
-        if (j > i) tokens.push_back(line.substr(i, j - i));
-        i = j;
-      }
-      if (!tokens.empty()) return true;
-    }
-    return false;
-  }
-
-  // "file:line: message" for the line last returned by next().
-  [[noreturn]] void fail(const std::string& message) const {
-    throw GeometryError(name_ + ":" + std::to_string(line_) + ": " + message);
-  }
-  [[noreturn]] void fail_truncated(const std::string& what) const {
-    throw GeometryError(name_ + ":" + std::to_string(line_) + ": file is truncated: " + what);
-  }
-
-  long long integer(std::string_view token, const char* what) const {
-    long long value = 0;
-    const auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
-    if (ec != std::errc() || ptr != token.data() + token.size()) {
-      fail("bad " + std::string(what) + " '" + std::string(token) + "' (expected an integer)");
-    }
-    return value;
-  }
-
-  double real(std::string_view token, const char* what) const {
-    // from_chars does not accept a leading '+', which some writers emit.
-    std::string_view t = token;
-    if (!t.empty() && t.front() == '+') t.remove_prefix(1);
-    double value = 0.0;
-    const auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), value);
-    if (ec != std::errc() || ptr != t.data() + t.size() || !std::isfinite(value)) {
-      fail("bad " + std::string(what) + " '" + std::string(token) + "' (expected a finite number)");
-    }
-    return value;
-  }
-
-  std::size_t line() const { return line_; }
-
- private:
-  static bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
-
-  std::string name_;
-  std::string text_;
-  std::size_t pos_ = 0;
-  std::size_t line_ = 0;
-};
+using detail::TokenLines;
 
 // The .ele beside a .node: "mesh.1.node" -> "mesh.1.ele".
 std::filesystem::path ele_path_for(const std::filesystem::path& node_file) {
@@ -121,7 +49,7 @@ TetMesh read_tetgen(const std::filesystem::path& node_file) {
   std::vector<std::string_view> tok;
 
   // --- .node: header "<#points> <dim> <#attributes> <#boundary markers>" ---
-  TokenLines node(node_file, "node");
+  TokenLines node(node_file, "TetGen node");
   if (!node.next(tok)) node.fail_truncated("missing the header line");
   const long long npoints = node.integer(tok[0], "point count");
   if (npoints < 0 || npoints > static_cast<long long>(UINT32_MAX)) {
@@ -151,7 +79,7 @@ TetMesh read_tetgen(const std::filesystem::path& node_file) {
   }
 
   // --- .ele: header "<#tets> <nodes per tet> <#attributes>" ---
-  TokenLines ele(ele_file, "element");
+  TokenLines ele(ele_file, "TetGen element");
   if (!ele.next(tok)) ele.fail_truncated("missing the header line");
   const long long ntets = ele.integer(tok[0], "tet count");
   if (ntets < 0 || ntets > static_cast<long long>(UINT32_MAX / 4)) {
@@ -184,23 +112,17 @@ TetMesh read_tetgen(const std::filesystem::path& node_file) {
       tet[i] = static_cast<std::uint32_t>(v);
     }
 
-    const Vec3& p0 = mesh.vertices[tet[0]];
-    const Vec3& p1 = mesh.vertices[tet[1]];
-    const Vec3& p2 = mesh.vertices[tet[2]];
-    const Vec3& p3 = mesh.vertices[tet[3]];
-    const double volume = (p1 - p0).dot((p2 - p0).cross(p3 - p0)) / 6.0;
-    const double mean_edge = ((p1 - p0).norm() + (p2 - p0).norm() + (p3 - p0).norm() + (p2 - p1).norm() +
-                              (p3 - p1).norm() + (p3 - p2).norm()) / 6.0;
-    // Scale-free flatness test against the tet's own size, so a small but well-shaped tet is fine.
-    if (std::abs(volume) <= 1e-12 * mean_edge * mean_edge * mean_edge) {
+    double volume = 0.0, mean_edge = 0.0;
+    // TetGen writes positive tets, but other writers use the opposite convention; flipping is lossless.
+    if (!detail::orient_tet(mesh.vertices, tet, volume, mean_edge)) {
       std::ostringstream msg;
       msg << "tet " << tet_index << " is degenerate (volume " << volume << ", mean edge " << mean_edge << ")";
       ele.fail(msg.str());
     }
-    // TetGen writes positive tets, but other writers use the opposite convention; flipping is lossless.
-    if (volume < 0.0) std::swap(tet[2], tet[3]);
     mesh.tets[static_cast<std::size_t>(k)] = tet;
   }
+  // A .face/.edge/.neigh beside the .node (TetGen writes them) is not needed and is ignored.
+  detail::require_one_piece(mesh, ele_file.string());
   return mesh;
 }
 

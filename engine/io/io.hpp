@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "components/embedded_mesh.hpp"
 #include "components/field_registry.hpp"
 #include "components/math.hpp"
 
@@ -31,6 +32,26 @@ void write_vtu_points(const std::filesystem::path& target, const std::vector<Vec
 // (vectors become name_x name_y name_z). Houdini and Blender import these.
 void write_ply_points(const std::filesystem::path& target, const std::vector<Vec3>& points,
                       const std::vector<FieldView>& fields);
+
+// ---- Embedded tet mesh output (surface.cpp) ----
+// Surface as Wavefront OBJ: `mtllib <mtl>`, vertices, then `g surface`/`usemtl surface` with the
+// original-surface triangles and `g crack`/`usemtl crack` with the crack triangles (1-based, outward
+// counter-clockwise). Coordinates with 9 significant digits.
+void write_obj_surface(const std::filesystem::path& target, const SurfaceMesh& surface,
+                       const std::string& mtl_file = "surface.mtl");
+// The two materials the OBJ files use (grey surface, orange crack).
+void write_surface_mtl(const std::filesystem::path& target);
+// Surface as binary little-endian PLY: vertex x y z float; face: list uchar int vertex_indices,
+// uchar crack, uint fragment.
+void write_ply_surface(const std::filesystem::path& target, const SurfaceMesh& surface);
+// Surface as VTK XML PolyData (.vtp) with cell data crack (UInt8) and fragment (UInt32): what the
+// surface.pvd series lists (ParaView's .pvd reader takes VTK XML files only).
+void write_vtp_surface(const std::filesystem::path& target, const SurfaceMesh& surface);
+// Tet mesh as VTK XML UnstructuredGrid (VTK_TETRA cells) with per-cell damage (Float64) and
+// fragment (UInt32); both arrays have one value per tet.
+void write_vtu_tets(const std::filesystem::path& target, const std::vector<Vec3>& vertices,
+                    const std::vector<std::array<std::uint32_t, 4>>& tets, const std::vector<double>& damage,
+                    const std::vector<std::uint32_t>& fragment);
 
 // A ParaView .pvd collection, rewritten atomically each time a frame is added.
 class PvdSeries {

@@ -25,6 +25,14 @@ TetMesh mesh_for(const scene::Body& body) {
     case scene::Geometry::Kind::cylinder:
       return geometry::mesh_cylinder(g.radius, g.height, g.axis, cell_for(std::max(2.0 * g.radius, g.height)));
     case scene::Geometry::Kind::tetgen: return geometry::read_tetgen(g.path);
+    case scene::Geometry::Kind::gmsh: return geometry::read_gmsh(g.path);
+    case scene::Geometry::Kind::surface: {
+      geometry::SurfaceResolution res;
+      res.edge_length = g.edge_length;
+      res.particles = g.particles;
+      res.resolution = g.resolution > 0 ? g.resolution : 20;
+      return geometry::load_surface(g.path, res);
+    }
   }
   return {};
 }
@@ -70,6 +78,14 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     w.any_fracture = w.any_fracture || std::isfinite(m.critical_stretch);
   }
 
+  // FEM mode (components/fem.hpp): the particles are the mesh vertices; elastic materials only.
+  const bool fem = scene.solver != scene::Solver::peridynamics;
+  if (fem && (w.any_plastic || w.any_fracture))
+    throw std::invalid_argument("model/solver: the FEM reference solver is elastic only; this scene has a material "
+                                "with a finite yield_energy or critical_stretch (use solver 'peridynamics')");
+  if (fem && !scene.cracks.empty())
+    throw std::invalid_argument("model/solver: initial cracks need solver 'peridynamics'");
+
   auto& p = w.particles;
   for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi) {
     const scene::Body& body = scene.bodies[bi];
@@ -83,7 +99,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     BodyInfo info;
     info.name = body.name;
     info.first_particle = static_cast<std::uint32_t>(p.reference_position.size());
-    info.particle_count = static_cast<std::uint32_t>(mesh.tets.size());
+    info.particle_count = static_cast<std::uint32_t>(fem ? mesh.vertices.size() : mesh.tets.size());
     info.first_vertex = static_cast<std::uint32_t>(w.mesh.vertices.size());
     info.vertex_count = static_cast<std::uint32_t>(mesh.vertices.size());
     info.mean_edge_length = geometry::mean_edge_length(mesh);
@@ -91,20 +107,36 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
 
     const auto& mat = scene.materials[static_cast<std::size_t>(body.material)];
     const std::size_t first = p.reference_position.size();
+    std::vector<double> vertex_volume(fem ? mesh.vertices.size() : 0, 0.0);  // lumped: Σ V_t/4
     for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
       const double vol = geometry::tet_volume(mesh, t);
-      const Vec3 c = geometry::tet_barycenter(mesh, t);
-      p.reference_position.push_back(c);
-      p.volume.push_back(vol);
-      p.mass.push_back(mat.density * vol);
-      p.material_id.push_back(static_cast<std::uint16_t>(body.material));
-      p.body_id.push_back(static_cast<std::uint16_t>(bi));
-      w.model.horizon.push_back(info.horizon);
+      if (fem) {
+        for (auto v : mesh.tets[t]) vertex_volume[v] += 0.25 * vol;
+      } else {
+        const Vec3 c = geometry::tet_barycenter(mesh, t);
+        p.reference_position.push_back(c);
+        p.volume.push_back(vol);
+        p.mass.push_back(mat.density * vol);
+        p.material_id.push_back(static_cast<std::uint16_t>(body.material));
+        p.body_id.push_back(static_cast<std::uint16_t>(bi));
+        w.model.horizon.push_back(info.horizon);
+      }
       auto tet = mesh.tets[t];
       for (auto& v : tet) v += info.first_vertex;
       w.mesh.tets.push_back(tet);
     }
     w.mesh.vertices.insert(w.mesh.vertices.end(), mesh.vertices.begin(), mesh.vertices.end());
+    for (std::size_t v = 0; v < vertex_volume.size(); ++v) {
+      if (!(vertex_volume[v] > 0.0))
+        throw geometry::GeometryError("body '" + body.name + "': vertex " + std::to_string(v) +
+                                      " belongs to no tetrahedron; the FEM solver cannot give it a mass");
+      p.reference_position.push_back(mesh.vertices[v]);
+      p.volume.push_back(vertex_volume[v]);
+      p.mass.push_back(mat.density * vertex_volume[v]);
+      p.material_id.push_back(static_cast<std::uint16_t>(body.material));
+      p.body_id.push_back(static_cast<std::uint16_t>(bi));
+      w.model.horizon.push_back(info.horizon);
+    }
     // Initial rigid velocity about the body's center of mass.
     Vec3 com = Vec3::Zero();
     double total = 0.0;
@@ -135,10 +167,29 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   w.boundary.constrained.erase(std::unique(w.boundary.constrained.begin(), w.boundary.constrained.end()),
                                w.boundary.constrained.end());
 
+  if (fem) {
+    // No bonds: an empty CSR so bond-walking code (output fields, fragments) sees empty families.
+    w.bonds.offsets.assign(p.count() + 1, 0);
+    w.bonds.initial_count.assign(p.count(), 0);
+    scheduler.execute([&] {
+      systems::setup_fem(w);
+      systems::compute_model_constants(w);  // the damping rate; the rest is unused without bonds
+      systems::compute_fem_force(w, p.position, w.fem.corner_force, w.state.internal_force);
+      parallel_for_each(p.count(), [&](std::size_t i) {
+        w.state.external_force[i] = p.mass[i] * scene.gravity;
+        p.acceleration[i] = (w.state.internal_force[i] + w.state.external_force[i]) / p.mass[i];
+      });
+    });
+    systems::setup_contact(w);
+    w.contact.enabled = false;  // particle contact assumes unbonded particles; FEM vertices are not
+    systems::setup_projectiles(w);
+    return world;
+  }
   scheduler.execute([&] {
     const auto adjacency = geometry::face_neighbors(w.mesh);
     systems::build_families(w, adjacency);
     systems::remove_cracked_bonds(w, scene.cracks);
+    systems::setup_embedded_mesh(w, adjacency);  // after the bonds: a face pair without one starts cracked
     systems::compute_model_constants(w);
     // Initial acceleration for the first kick of velocity Verlet.
     systems::compute_dilatation(w, p.position, w.state.dilatation, w.state.dilatation_coupling);
@@ -159,24 +210,42 @@ void add_step_systems(WorldState& w, Scheduler& scheduler) {
   scheduler.add(systems::drift_system(w));
   if (!w.projectiles.bodies.empty()) scheduler.add(systems::projectile_drift_system(w));
   scheduler.add(systems::collider_system(w));
-  scheduler.add(systems::dilatation_system(w));
-  if (w.any_plastic) scheduler.add(systems::plasticity_system(w));
-  scheduler.add(systems::elastic_force_system(w));
+  if (w.scene.solver != scene::Solver::peridynamics) {
+    scheduler.add(systems::fem_force_system(w));
+  } else {
+    scheduler.add(systems::dilatation_system(w));
+    if (w.any_plastic) scheduler.add(systems::plasticity_system(w));
+    scheduler.add(systems::elastic_force_system(w));
+  }
   scheduler.add(systems::external_load_system(w));
   if (w.contact.enabled) scheduler.add(systems::contact_system(w));
   if (!w.projectiles.bodies.empty()) scheduler.add(systems::projectile_contact_system(w));
   scheduler.add(systems::kick_end_system(w));
   if (w.any_fracture) scheduler.add(systems::fracture_system(w));
   if (w.any_fracture || w.any_plastic) scheduler.add(systems::damage_system(w));
+  // Embedded mesh (§5.2): crack faces and vertex splitting when bonds can break; vertex motion when
+  // anything uses the mesh surface (fracture, or surface/tet output requested).
+  if (w.scene.solver == scene::Solver::peridynamics) {
+    if (w.any_fracture) scheduler.add(systems::crack_face_system(w));
+    if (w.any_fracture) scheduler.add(systems::mesh_split_system(w));
+    const auto& out = w.scene.output;
+    if (w.any_fracture || out.obj || out.surface_ply || out.tets_vtu) scheduler.add(systems::mesh_vertex_system(w));
+  }
 }
 
 double estimate_stable_time_step(const WorldState& w) {
   const std::size_t n = w.particles.count();
-  if (n == 0 || w.bonds.count() == 0) return kInfinity;
+  const bool fem = w.scene.solver != scene::Solver::peridynamics;
+  if (n == 0 || (!fem && w.bonds.count() == 0)) return kInfinity;
   const auto& x = w.particles.reference_position;
   const auto& mass = w.particles.mass;
   double min_spacing = kInfinity;
   for (double r : w.bonds.reference_length) min_spacing = std::min(min_spacing, r);
+  if (fem)
+    for (const auto& t : w.mesh.tets)
+      for (int a = 0; a < 4; ++a)
+        for (int b = a + 1; b < 4; ++b) min_spacing = std::min(min_spacing, (x[t[a]] - x[t[b]]).norm());
+  std::vector<Vec3> corner_scratch;
 
   // Lanczos on A = M^-1/2 K M^-1/2 (symmetric, same eigenvalues as M⁻¹K). K u is probed as the force
   // change at a displacement small enough to stay linear. The largest Ritz value converges to
@@ -187,8 +256,12 @@ double estimate_stable_time_step(const WorldState& w) {
     const double rms = std::sqrt(deterministic_sum(n, 0.0, [&](std::size_t i) { return q[i].squaredNorm() / mass[i]; }) / double(n));
     const double eps = 1e-7 * min_spacing / std::max(rms, 1e-300);
     parallel_for_each(n, [&](std::size_t i) { y[i] = x[i] + (eps / std::sqrt(mass[i])) * q[i]; });
-    systems::compute_dilatation(w, y, theta, coupling);
-    systems::compute_internal_force(w, y, coupling, force);
+    if (fem) {
+      systems::compute_fem_force(w, y, corner_scratch, force);
+    } else {
+      systems::compute_dilatation(w, y, theta, coupling);
+      systems::compute_internal_force(w, y, coupling, force);
+    }
     parallel_for_each(n, [&](std::size_t i) { out[i] = -force[i] / (eps * std::sqrt(mass[i])); });
   };
   auto dot = [&](const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
@@ -230,6 +303,7 @@ double estimate_stable_time_step(const WorldState& w) {
 }
 
 double elastic_energy(const WorldState& w) {
+  if (w.scene.solver != scene::Solver::peridynamics) return systems::fem_elastic_energy(w, w.particles.position);
   const auto& b = w.bonds;
   const auto& p = w.particles;
   const auto& md = w.model;

@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -121,6 +122,12 @@ class Converter {
 
     s.normalization = j["model"]["normalization"] == "paper" ? Normalization::paper : Normalization::discrete;
     s.family = j["model"]["family"] == "mesh" ? FamilyRule::mesh : FamilyRule::distance;
+    {
+      const std::string solver = j["model"]["solver"].get<std::string>();
+      s.solver = solver == "fem_linear"      ? Solver::fem_linear
+                 : solver == "fem_corotated" ? Solver::fem_corotated
+                                             : Solver::peridynamics;
+    }
 
     for (const auto& [name, m] : j["materials"].items())
       if (name.front() != '_') s.materials.push_back(material(name, m, child_pointer("/materials", name)));
@@ -167,6 +174,11 @@ class Converter {
     const auto& formats = o["formats"];
     s.output.vtu = std::find(formats.begin(), formats.end(), "vtu") != formats.end();
     s.output.ply = std::find(formats.begin(), formats.end(), "ply") != formats.end();
+    auto has_format = [&](const char* f) { return std::find(formats.begin(), formats.end(), f) != formats.end(); };
+    s.output.obj = has_format("obj");
+    s.output.surface_ply = has_format("surface_ply");
+    s.output.surface_vtp = has_format("surface_vtp");
+    s.output.tets_vtu = has_format("tets_vtu");
     s.output.fields = o["fields"].get<std::vector<std::string>>();
     return s;
   }
@@ -249,13 +261,17 @@ class Converter {
       geo.radius = num(g["radius"]);
       geo.height = num(g["height"]);
       geo.axis = g["axis"].get<std::string>()[0] - 'x';
-    } else {
+    } else if (type == "tetgen") {
       geo.kind = Geometry::Kind::tetgen;
       geo.path = tetgen_file(g["path"], p + "/geometry/path");
+    } else {
+      geo.kind = type == "gmsh" ? Geometry::Kind::gmsh : Geometry::Kind::surface;
+      geo.path = mesh_file(g["path"], p + "/geometry/path", geo.kind == Geometry::Kind::gmsh);
     }
-    if (geo.kind != Geometry::Kind::tetgen) {
-      // Exactly one is set, so downstream can test edge_length > 0.
+    if (geo.kind != Geometry::Kind::tetgen && geo.kind != Geometry::Kind::gmsh) {
+      // Exactly one is set, so downstream can test edge_length > 0, then particles > 0.
       if (g.contains("edge_length")) geo.edge_length = num(g["edge_length"]);
+      else if (g.contains("particles")) geo.particles = g["particles"].get<int>();
       else geo.resolution = g["resolution"].get<int>();
     }
 
@@ -284,6 +300,21 @@ class Converter {
                       folder_.string() + ")");
     }
     return node;
+  }
+
+  // A Gmsh .msh or a closed surface file: exists, and a surface has an extension we can read.
+  fs::path mesh_file(const Json& path_json, const std::string& ptr, bool gmsh) const {
+    const fs::path file = (folder_ / path_json.get<std::string>()).lexically_normal();
+    std::string ext = file.extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    const char* expected = gmsh ? "a Gmsh .msh file" : "a closed surface mesh: .obj, .ply, .stl or .off";
+    if (!gmsh && ext != ".obj" && ext != ".ply" && ext != ".stl" && ext != ".off")
+      fail(ptr, "unknown surface format '" + ext + "' (got " + show(path_json) + "; expected " + expected + ")");
+    std::error_code ec;
+    if (!fs::is_regular_file(file, ec))
+      fail(ptr, "mesh file not found: " + file.string() + " (got " + show(path_json) + "; expected " + expected +
+                    ", relative to " + folder_.string() + ")");
+    return file;
   }
 
   Region region(const Json& r, const std::string& p) const {
@@ -400,8 +431,15 @@ class Converter {
 Scene load_scene_text(const std::string& text, const fs::path& file) {
   const std::string name = file.string();
   Json j = parse(text, name);
+  const bool formats_given = j.is_object() && j.contains("output") && j["output"].is_object() &&
+                             j["output"].contains("formats");
   detail::validate(j, name);
-  return Converter(name, fs::absolute(file).parent_path()).run(j, file);
+  Scene s = Converter(name, fs::absolute(file).parent_path()).run(j, file);
+  // Fracture scenes write the crack surfaces unless the scene lists its formats.
+  const bool fracture = std::any_of(s.materials.begin(), s.materials.end(),
+                                    [](const Material& m) { return std::isfinite(m.critical_stretch); });
+  if (!formats_given && fracture && s.solver == Solver::peridynamics) s.output.obj = s.output.surface_ply = true;
+  return s;
 }
 
 Scene load_scene_file(const fs::path& file) {

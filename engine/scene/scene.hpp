@@ -26,7 +26,10 @@ class SceneError : public std::runtime_error {
 };
 
 enum class Normalization { paper, discrete };  // notes.md: paper constants, or per-particle discrete sums
-enum class FamilyRule { mesh, distance };      // notes.md: distance + face-connectivity, or distance only
+enum class FamilyRule { mesh, distance };
+// peridynamics: the paper's model (particles at tet barycenters). fem_*: reference FEM on the same
+// tet mesh, particles at the mesh vertices (components/fem.hpp).
+enum class Solver { peridynamics, fem_linear, fem_corotated };      // notes.md: distance + face-connectivity, or distance only
 
 struct Material {
   std::string name;
@@ -42,15 +45,16 @@ struct Material {
 };
 
 struct Geometry {
-  enum class Kind { box, sphere, cylinder, tetgen };
+  enum class Kind { box, sphere, cylinder, tetgen, gmsh, surface };
   Kind kind = Kind::box;
   Vec3 size = Vec3(1, 1, 1);           // box: full edge lengths, m
   double radius = 0.5;                 // sphere, cylinder, m
   double height = 1.0;                 // cylinder, m (along `axis`)
   int axis = 2;                        // cylinder axis: 0 x, 1 y, 2 z
-  std::filesystem::path path;          // tetgen: the .node file (.ele beside it), absolute
-  double edge_length = 0.0;            // structured mesher: target cell size, m (0 = use resolution)
-  int resolution = 0;                  // structured mesher: cells along the longest extent
+  std::filesystem::path path;          // tetgen: the .node (.ele beside it); gmsh: .msh; surface: .obj/.ply/.stl/.off; absolute
+  double edge_length = 0.0;            // structured mesher, surface: target cell / tet edge size, m (0 = unset)
+  int resolution = 0;                  // structured mesher, surface: cells along the longest extent
+  long long particles = 0;             // surface: target tet count (0 = unset)
 };
 
 struct Transform {
@@ -155,6 +159,12 @@ struct Output {
   std::filesystem::path directory = "out";   // absolute after loading (relative paths: to the cwd)
   bool vtu = true;                     // particles as VTU + a .pvd series (ParaView)
   bool ply = true;                     // particles as binary PLY points (Houdini, Blender)
+  // Embedded tet mesh output (engine/io/surface.cpp): surface.NNNN.obj (+ surface.mtl; groups
+  // surface/crack), surface.NNNN.ply (binary, per-face crack + fragment), tets.NNNN.vtu (+ tets.pvd).
+  bool obj = false;
+  bool surface_ply = false;
+  bool surface_vtp = false;            // surface.NNNN.vtp + surface.pvd (ParaView)
+  bool tets_vtu = false;
   std::vector<std::string> fields;     // particle fields to write; empty = all registered fields
 };
 
@@ -166,6 +176,7 @@ struct Scene {
   Vec3 gravity = Vec3(0, -9.81, 0);    // m/s² (Y is up)
   Normalization normalization = Normalization::paper;
   FamilyRule family = FamilyRule::mesh;
+  Solver solver = Solver::peridynamics;
   std::vector<Material> materials;
   std::vector<Body> bodies;
   std::vector<BoundaryCondition> boundary_conditions;

@@ -58,7 +58,7 @@ Key rotation(std::string n, std::string d) {
 }
 
 const Json kZero = Json::array({0, 0, 0});
-const std::vector<std::string> kMeshers = {"box", "sphere", "cylinder"};
+const std::vector<std::string> kMeshers = {"box", "sphere", "cylinder", "surface"};  // take a resolution
 
 Key build_spec() {
   Key material = nested("materials", Type::map, "material",
@@ -88,18 +88,29 @@ Key build_spec() {
       text("name", "Unique body name.").def_text("`\"body<k>\"`, k = index in `bodies`"),
       text("material", "Name of one of `materials`.").req(),
       object("geometry", "geometry", "Shape, meshed into tets; primitives are centered at the origin.", {
-          choice("type", {"box", "sphere", "cylinder", "tetgen"},
-                 "A primitive for the built-in structured mesher, or a TetGen mesh.").req(),
+          choice("type", {"box", "sphere", "cylinder", "tetgen", "gmsh", "surface"},
+                 "A primitive for the built-in structured mesher; a tet mesh file (`tetgen`, `gmsh`); or "
+                 "a closed triangle surface (`surface`) filled with tets by the external `tetgen` program "
+                 "(apt-get install tetgen).").req(),
           vec3("size", "Full edge lengths, m.").gt(0).req().only({"box"}),
           number("radius", "Radius, m.").gt(0).req().only({"sphere", "cylinder"}),
           number("height", "Length along `axis`, m.").gt(0).req().only({"cylinder"}),
           choice("axis", {"x", "y", "z"}, "Cylinder axis.").def("y").only({"cylinder"}),
-          text("path", "The .node file, relative to the scene file's folder; the .ele with the "
-                       "same stem must be beside it.").req().only({"tetgen"}),
-          number("edge_length", "Target cell size of the structured mesh, m.").gt(0).only(kMeshers),
-          integer("resolution", "Cells along the longest extent of the structured mesh.")
+          text("path", "Mesh file, relative to the scene file's folder. `tetgen`: the .node file, with the "
+                       ".ele of the same stem beside it. `gmsh`: an ASCII .msh, format 2.2 or 4.1 (only its "
+                       "tetrahedra are used). `surface`: .obj, .ply, .stl or .off (by extension); it must be "
+                       "closed, manifold and one piece. A tet mesh in several pieces (sharing no vertex) is "
+                       "an error: make them separate bodies.").req().only({"tetgen", "gmsh", "surface"}),
+          number("edge_length", "Target cell size of the structured mesh, m; for `surface`, the edge of "
+                                "a regular tet whose volume is TetGen's bound (in the file's units, "
+                                "before `transform`).").gt(0).only(kMeshers),
+          integer("resolution", "Cells along the longest extent of the structured mesh; for `surface`, "
+                                "edge_length = longest bounding-box extent / resolution.")
               .ge(1).def(20).only(kMeshers),
-      }).one_of({{"edge_length"}, {"resolution"}}, false).req(),
+          integer("particles", "Target tet (particle) count: TetGen's volume bound is enclosed volume / "
+                               "particles, rescaled up to twice toward the count. Coarse targets come out "
+                               "higher: the surface's triangles set a floor.").ge(1).only({"surface"}),
+      }).one_of({{"edge_length"}, {"resolution"}, {"particles"}}, false).req(),
       object("transform", "transform", "Placement of the mesh: x ↦ R·(scale·x) + translate.", {
           vec3("translate", "Translation, m.").def(kZero),
           rotation("rotate", "Rotation R; omitted = none."),
@@ -214,6 +225,11 @@ Key build_spec() {
                  "Normalization: the paper's constants, or per-particle discrete sums.").def("paper"),
           choice("family", {"mesh", "distance"},
                  "Bond family: distance plus mesh face-connectivity, or distance only.").def("mesh"),
+          choice("solver", {"peridynamics", "fem_linear", "fem_corotated"},
+                 "Solver: the paper's peridynamics (particles at tet barycenters), or the reference FEM "
+                 "on the same tet mesh (linear or corotated linear elasticity, explicit, lumped mass; "
+                 "particles are the mesh vertices; elastic materials only, no contact or initial cracks). "
+                 "`perifx compare` maps the two onto each other.").def("peridynamics"),
       }).def(Json::object()),
       material.at_least(1).req(),
       body,
@@ -224,8 +240,13 @@ Key build_spec() {
       crack,
       object("output", "output", "What is written, and where.", {
           text("directory", "Output folder, relative to the current working directory.").def("out"),
-          strings("formats", {"vtu", "ply"},
-                  "`vtu`: VTU files and a .pvd series (ParaView); `ply`: binary PLY points.")
+          strings("formats", {"vtu", "ply", "obj", "surface_ply", "surface_vtp", "tets_vtu"},
+                  "`vtu`: VTU files and a .pvd series (ParaView); `ply`: binary PLY points. Embedded tet "
+                  "mesh (split along cracks, paper §5.2): `obj`: surface.NNNN.obj (groups and materials "
+                  "`surface` and `crack`, surface.mtl); `surface_ply`: surface.NNNN.ply (binary, per-face "
+                  "`crack` and `fragment`); `surface_vtp`: surface.NNNN.vtp + surface.pvd; `tets_vtu`: "
+                  "tets.NNNN.vtu + tets.pvd (per-tet damage and fragment). When `formats` is not given and "
+                  "a material has a finite critical_stretch, `obj` and `surface_ply` are added to the default.")
               .at_least(1).def(Json::array({"vtu", "ply"})),
           strings("fields", {}, "Particle fields to write; empty = all. Names are checked by the "
                                 "engine, not here.").def(Json::array()),

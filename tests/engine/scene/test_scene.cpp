@@ -323,7 +323,7 @@ TEST_CASE("scene: wrong types") {
   j = minimal();
   j["bodies"][0]["geometry"]["type"] = "cube";
   CHECK_HAS(error_in(j), "cases.json: /bodies/0/geometry/type: invalid value (got \"cube\"; expected one of "
-                         "\"box\", \"sphere\", \"cylinder\", \"tetgen\")");
+                         "\"box\", \"sphere\", \"cylinder\", \"tetgen\", \"gmsh\", \"surface\")");
   CHECK(error_of("[1, 2]", "arr.json") == "arr.json: the scene must be a JSON object (got [1,2]; expected an object)");
 }
 

@@ -1,0 +1,106 @@
+// Embedded mesh (paper §5.2) per-step costs on the ~3e5-tet box of bench_support.hpp, to compare
+// with BM_FullStep at the same size (the mesh systems must not dominate a step):
+//   BM_MeshNoCracks   crack_faces + mesh_split when no bond broke (the every-step cost of a fracture
+//                     scene between crack events): a parallel scan of the watched face pairs.
+//   BM_MeshSplit/N    the step in which N face-pair bonds broke: crack_faces + mesh_split +
+//                     mesh_vertices, N = 1e3 (part of one grid plane) and 1e5 (whole z planes, then
+//                     x planes): N faces become pending and are opened by splitting in that step.
+//   BM_MeshVertices   mesh_vertices alone (paid every step whenever surfaces are wanted).
+// The mesh is restored from a snapshot outside the timed region before each BM_MeshSplit iteration.
+#include <algorithm>
+
+#include "bench_support.hpp"
+
+namespace perifx::bench {
+namespace {
+
+constexpr std::int64_t kParticles = 303918;  // c = 37
+
+// Face pairs of the box's original mesh lying on grid planes, z planes first, then x planes.
+std::vector<std::uint32_t> plane_pairs(const WorldState& w, std::size_t count) {
+  const auto& e = w.embedded;
+  std::vector<std::pair<int, std::uint32_t>> keyed;
+  for (std::uint32_t p = 0; p < e.pair_tets.size(); ++p) {
+    const auto t = e.pair_tets[p][0];
+    const auto k = e.pair_local[p][0];
+    Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+    for (int c = 0; c < 4; ++c) {
+      if (c == k) continue;
+      const Vec3& v = e.reference_vertices[e.tets[t][static_cast<std::size_t>(c)]];
+      lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+    }
+    const Vec3 span = hi - lo;
+    if (span.z() < 1e-12) keyed.push_back({0, p});
+    else if (span.x() < 1e-12) keyed.push_back({1, p});
+  }
+  std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<std::uint32_t> out;
+  for (std::size_t q = 0; q < keyed.size() && out.size() < count; ++q) out.push_back(keyed[q].second);
+  return out;
+}
+
+void BM_MeshNoCracks(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(0));
+  World& world = world_for(kParticles, threads);
+  WorldState& w = world.state_mutable();
+  for (auto _ : state) {
+    arena(threads).execute([&] {
+      benchmark::DoNotOptimize(systems::collect_crack_faces(w));
+      benchmark::DoNotOptimize(systems::split_mesh_vertices(w));
+    });
+  }
+  state.counters["face_pairs"] = static_cast<double>(w.embedded.watched_pairs.size());
+  state.counters["tets"] = static_cast<double>(w.embedded.tets.size());
+}
+BENCHMARK(BM_MeshNoCracks)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+void BM_MeshSplit(benchmark::State& state) {
+  const auto faces = static_cast<std::size_t>(state.range(0));
+  const int threads = static_cast<int>(state.range(1));
+  World& world = world_for(kParticles, threads);
+  WorldState& w = world.state_mutable();
+  const EmbeddedMesh snapshot = w.embedded;
+  const std::vector<std::uint8_t> alive = w.bonds.alive;
+  const auto pairs = plane_pairs(w, faces);
+  std::size_t copies = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    w.embedded = snapshot;
+    w.bonds.alive = alive;
+    for (std::uint32_t p : pairs) {
+      const std::uint32_t k = w.embedded.pair_bond[p];
+      w.bonds.alive[k] = w.bonds.alive[w.bonds.reverse[k]] = 0;
+    }
+    state.ResumeTiming();
+    arena(threads).execute([&] {
+      systems::collect_crack_faces(w);
+      copies = systems::split_mesh_vertices(w);
+      systems::update_mesh_vertices(w, 0.0);
+    });
+  }
+  state.counters["crack_faces"] = static_cast<double>(pairs.size());
+  state.counters["vertex_copies"] = static_cast<double>(copies);
+  state.counters["still_pending"] = static_cast<double>(w.embedded.pending.size());
+  w.embedded = snapshot;
+  w.bonds.alive = alive;
+}
+BENCHMARK(BM_MeshSplit)
+    ->ArgNames({"faces", "threads"})
+    ->Args({1000, 1})
+    ->Args({1000, 2})
+    ->Args({100000, 1})
+    ->Args({100000, 2})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
+void BM_MeshVertices(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(0));
+  World& world = world_for(kParticles, threads);
+  WorldState& w = world.state_mutable();
+  for (auto _ : state) arena(threads).execute([&] { systems::update_mesh_vertices(w, 0.0); });
+  state.counters["vertices"] = static_cast<double>(w.embedded.vertices.size());
+}
+BENCHMARK(BM_MeshVertices)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace perifx::bench

@@ -1,0 +1,95 @@
+// The embedded tetrahedral mesh as it cracks (paper §5.2, notes.md "Mesh embedding and family"):
+// plain data, set up at world construction (systems::setup_embedded_mesh) from WorldState::mesh,
+// then changed only by the crack_faces, mesh_split and mesh_vertices systems.
+//
+// Tet t carries particle t. Faces are identified by (tet, local k): the face opposite local vertex k.
+// Every pair of tets that were face-adjacent in the original mesh is a FacePair; a pair is
+//   intact    — the tets share the face and its bond is alive (or there never was a bond ... see
+//               setup: a face-adjacent pair without a bond is an initial crack and starts cracked),
+//   cracked   — the bond broke but the tets still share all three vertices (a pending crack face),
+//   separated — vertex splitting gave the two tets different vertices: two boundary triangles.
+// Vertex copies made by splitting keep their original vertex in `origin`, so the tets incident to a
+// vertex v are found among the tets incident to origin[v] in the original mesh (incidence CSR).
+#pragma once
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "components/math.hpp"
+
+namespace perifx {
+
+enum class FaceState : std::uint8_t { intact = 0, cracked = 1, separated = 2 };
+
+// How vertices follow the particles.
+enum class VertexMotion : std::uint8_t {
+  // Default. Each vertex is embedded in the particles of its tet group: x_v = X_v + Σ w_p (y_p − x_p)
+  // with weights fixed at setup / at the split that made the group, w = the mass-weighted least-
+  // squares affine fit evaluated at X_v. Reproduces any affine (so any rigid) motion to round-off;
+  // velocity v_v = Σ w_p v_p is Eq 20–21 with fit weights instead of m_p/4.
+  embedded = 0,
+  // The paper's Eq 20–22 as written: v_v = Σ (m_p/4) v_p / Σ (m_p/4) over incident tets, x_v += dt v_v.
+  // Translation is exact; rotation drifts (measured in tests/systems/test_embedded_mesh.cpp).
+  paper = 1,
+};
+
+struct EmbeddedMesh {
+  VertexMotion motion = VertexMotion::embedded;
+
+  // ---- per vertex (grows when vertices split) ----
+  std::vector<Vec3> reference_vertices;   // X_v, m (a copy gets its original's)
+  std::vector<Vec3> vertices;             // x_v, current, m
+  std::vector<Vec3> vertex_velocity;      // m/s
+  std::vector<std::uint32_t> origin;      // original vertex index (itself for original vertices)
+  std::vector<std::uint8_t> split_copy;   // 1 for a copy made by splitting
+  // Embedding weights (VertexMotion::embedded): CSR per vertex. Rebuilt for a vertex when its tet
+  // group changes; rows of copies are appended (weight_rows[v] = {begin, end} into weight_*).
+  std::vector<std::array<std::uint32_t, 2>> weight_rows;
+  std::vector<std::uint32_t> weight_particle;
+  std::vector<double> weight_value;
+
+  // ---- per tet ----
+  std::vector<std::array<std::uint32_t, 4>> tets;        // current vertex indices (splitting rewrites)
+  std::vector<std::array<std::int32_t, 4>> neighbors;    // original face adjacency, −1 original boundary
+  std::vector<std::array<std::int32_t, 4>> face_pair;    // FacePair index of each face, −1 boundary
+
+  // ---- per original face-adjacent tet pair ----
+  std::vector<std::array<std::uint32_t, 2>> pair_tets;   // (t, u), t < u
+  std::vector<std::array<std::uint8_t, 2>> pair_local;   // local face index in t and in u
+  std::vector<std::uint32_t> pair_bond;                  // bond t→u, or kNoBond
+  std::vector<FaceState> pair_state;
+  static constexpr std::uint32_t kNoBond = 0xFFFFFFFFu;
+
+  // Pairs still intact that have a bond: the crack_faces system scans only these (≈2 per tet).
+  std::vector<std::uint32_t> watched_pairs;
+  // Pending crack faces: cracked pairs whose tets still share the face, sorted by pair index.
+  std::vector<std::uint32_t> pending;
+  // Pairs that became cracked this step (input of mesh_split; cleared by it).
+  std::vector<std::uint32_t> fresh;
+
+  // ---- original incidence (setup only; never changes) ----
+  std::vector<std::uint32_t> incidence_offsets;  // per original vertex + 1
+  std::vector<std::uint32_t> incidence;          // tet·4 + local slot
+
+  // ---- counters ----
+  std::uint64_t crack_faces_total = 0;   // pairs that ever became cracked (initial cracks included)
+  std::uint64_t vertex_copies_total = 0;
+  std::uint32_t original_vertex_count = 0;
+
+  std::size_t vertex_count() const { return vertices.size(); }
+};
+
+}  // namespace perifx
+
+namespace perifx {
+
+// Boundary triangles of the current (split) embedded mesh, for output (systems/mesh_surface.cpp).
+struct SurfaceMesh {
+  std::vector<Vec3> vertices;                          // only the referenced ones, in vertex order
+  std::vector<std::array<std::uint32_t, 3>> triangles; // outward (counter-clockwise seen from outside)
+  std::vector<std::uint8_t> crack;                     // 1: the face was interior in the original mesh
+  std::vector<std::uint32_t> fragment;                 // fragment id of the triangle's tet's particle
+  std::vector<std::uint32_t> tet;                      // the tet the triangle bounds
+};
+
+}  // namespace perifx

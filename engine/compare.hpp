@@ -1,0 +1,50 @@
+// Run comparison (paper §6): position deviation between two runs' frame series, over the diagonal of
+// the reference run's bounding box at frame 0:  Error = |x_p − x_p^ref| / d.
+//   PD ↔ PD, FEM ↔ FEM: particle by particle (same scene ⇒ same particles and order).
+//   PD ↔ FEM: a PD particle sits at its tet's barycenter, so the FEM run is evaluated there as the
+//   mean of the tet's 4 vertex positions (the FEM run's mesh.json gives the tets). The mesh must be
+//   the same: tet hashes agree and the FEM barycenters at frame 0 equal the PD particles.
+// Each run directory has particles.pvd + particles.NNNN.vtu (runner) and mesh.json (written by
+// write_run_mesh at the start of a run).
+#pragma once
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace perifx {
+
+struct WorldState;
+
+class CompareError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct CompareFrame {
+  double time_a = 0.0, time_b = 0.0;
+  double max_error = 0.0, mean_error = 0.0;  // over particles, divided by the diagonal
+};
+
+struct CompareResult {
+  std::string solver_a, solver_b;
+  std::string mapping;          // "direct", "fem vertices -> tet barycenters (B)", ...
+  std::size_t points = 0;       // compared points per frame
+  double diagonal = 0.0;        // d, m: bounding-box diagonal of run A at frame 0
+  std::vector<CompareFrame> frames;
+  double max_error = 0.0, mean_error = 0.0;  // over all frames and points
+  std::size_t frames_a = 0, frames_b = 0;    // frames in each series (compared: the common prefix)
+};
+
+// Writes <dir>/mesh.json: solver, what the particles are, counts, a hash of the tet connectivity
+// and, for FEM runs, the tets themselves (vertex = particle indices).
+void write_run_mesh(const WorldState& world, const std::filesystem::path& directory);
+
+// Compares run B against reference run A. Throws CompareError with a clear message when a run
+// cannot be read or the runs do not describe the same mesh / frame times.
+CompareResult compare_runs(const std::filesystem::path& run_a, const std::filesystem::path& run_b);
+
+// compare.csv: frame,time,max_error,mean_error, then an "overall" row.
+void write_compare_csv(const CompareResult& result, const std::filesystem::path& file);
+
+}  // namespace perifx
