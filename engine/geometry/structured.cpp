@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>  // cross(); components/math.hpp only brings in Eigen/Core
 
 #include "geometry/geometry.hpp"
+#include "geometry/mesh_text.hpp"
 
 namespace perifx::geometry {
 
@@ -154,25 +155,6 @@ void keep_largest_component(TetMesh& mesh) {
   mesh.tets.resize(out);
 }
 
-// Drops vertices no tet uses and renumbers, keeping the grid's vertex order.
-void drop_unused_vertices(TetMesh& mesh) {
-  constexpr std::uint32_t kUnused = std::numeric_limits<std::uint32_t>::max();
-  std::vector<std::uint32_t> remap(mesh.vertices.size(), kUnused);
-  for (const auto& tet : mesh.tets) {
-    for (std::uint32_t v : tet) remap[v] = 0;
-  }
-  std::uint32_t next = 0;
-  for (std::size_t v = 0; v < mesh.vertices.size(); ++v) {
-    if (remap[v] == kUnused) continue;
-    remap[v] = next;
-    mesh.vertices[next++] = mesh.vertices[v];
-  }
-  mesh.vertices.resize(next);
-  for (auto& tet : mesh.tets) {
-    for (auto& v : tet) v = remap[v];
-  }
-}
-
 // Moves the vertices of curved boundary faces onto the true surface without inverting or flattening
 // any tet: no tet may end below kMinVolumeRatio of its grid volume.
 //
@@ -281,7 +263,7 @@ TetMesh carve_and_snap(const TetMesh& grid, const CurvedShape& shape, const char
   }
 
   keep_largest_component(mesh);
-  drop_unused_vertices(mesh);
+  detail::compact_vertices(mesh);  // drops unused vertices, keeps the grid order
   snap_to_surface(mesh, shape);
   return mesh;
 }
