@@ -15,27 +15,21 @@
 #include <string>
 #include <vector>
 
+#include "cli_support.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  int code;
-  std::string output;
-};
+using perifx::test::run_cli;
 
-Result run_cli(const std::string& args) {
-  const std::string cmd = std::string(PERIFX_CLI) + " " + args + " 2>&1";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  REQUIRE(pipe != nullptr);
-  std::string out;
-  std::array<char, 4096> buf;
-  while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
-  const int status = ::pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+// Built by appending: `"'" + s + "'"` trips GCC 12's false -Wrestrict warning in libstdc++.
+std::string quoted(const fs::path& p) {
+  std::string q(1, '\'');
+  q += p.string();
+  q += '\'';
+  return q;
 }
-
-std::string quoted(const fs::path& p) { return "'" + p.string() + "'"; }
 
 std::vector<fs::path> scenes_under(const fs::path& dir, const std::string& suffix) {
   std::vector<fs::path> out;

@@ -10,25 +10,13 @@
 #include <sstream>
 #include <string>
 
+#include "cli_support.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  int code;
-  std::string output;
-};
-
-Result run(const std::string& args) {
-  const std::string cmd = std::string(PERIFX_CLI) + " " + args + " 2>&1";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  REQUIRE(pipe != nullptr);
-  std::string out;
-  std::array<char, 4096> buf;
-  while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
-  const int status = ::pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+using perifx::test::run_cli;
 
 fs::path temp_dir(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("perifx_cli_" + name + "_" + std::to_string(::getpid()));
@@ -64,8 +52,8 @@ const char* kScene = R"({
 TEST_CASE("cli: a scene run with 1 and with 2 threads writes byte-identical frames") {
   const fs::path dir = temp_dir("determinism");
   const fs::path scene = write(dir, "scene.json", kScene);
-  const auto one = run("run " + scene.string() + " --quiet --threads 1 --out " + (dir / "t1").string());
-  const auto two = run("run " + scene.string() + " --quiet --threads 2 --out " + (dir / "t2").string());
+  const auto one = run_cli("run " + scene.string() + " --quiet --threads 1 --out " + (dir / "t1").string());
+  const auto two = run_cli("run " + scene.string() + " --quiet --threads 2 --out " + (dir / "t2").string());
   REQUIRE(one.code == 0);
   REQUIRE(two.code == 0);
   int compared = 0;
@@ -106,17 +94,17 @@ TEST_CASE("cli: errors exit non-zero with a message naming the file, pointer, va
   };
   for (const auto& c : cases) {
     const fs::path file = write(dir, c.file, c.text);
-    const auto r = run("check " + file.string());
+    const auto r = run_cli("check " + file.string());
     CHECK_MESSAGE(r.code == 2, c.file);
     CHECK_MESSAGE(r.output.find(c.file) != std::string::npos, r.output);
     CHECK_MESSAGE(r.output.find(c.needle) != std::string::npos, r.output);
   }
-  const auto missing = run("check " + (dir / "absent.json").string());
+  const auto missing = run_cli("check " + (dir / "absent.json").string());
   CHECK(missing.code == 2);
   CHECK(missing.output.find("absent.json") != std::string::npos);
-  const auto usage = run("run");
+  const auto usage = run_cli("run");
   CHECK(usage.code == 1);
-  const auto bad_flag = run("run x.json --threads zero");
+  const auto bad_flag = run_cli("run x.json --threads zero");
   CHECK(bad_flag.code == 1);
   CHECK(bad_flag.output.find("--threads") != std::string::npos);
   fs::remove_all(dir);
@@ -128,7 +116,7 @@ TEST_CASE("cli: a time step above the stable limit is refused with the limit in 
   text.replace(text.find("1e-4"), 4, "5e-2");
   text.replace(text.find("0.02,"), 5, "1.0, ");
   const fs::path scene = write(dir, "scene.json", text);
-  const auto r = run("run " + scene.string() + " --quiet --out " + (dir / "out").string());
+  const auto r = run_cli("run " + scene.string() + " --quiet --out " + (dir / "out").string());
   CHECK(r.code == 4);
   CHECK(r.output.find("exceeds the stable explicit step") != std::string::npos);
   fs::remove_all(dir);
@@ -138,7 +126,7 @@ TEST_CASE("cli: every shipped scene passes check") {
   int count = 0;
   for (const auto& entry : fs::directory_iterator(fs::path(PERIFX_SOURCE_DIR) / "assets" / "scenes")) {
     if (entry.path().extension() != ".json") continue;
-    const auto r = run("check " + entry.path().string());
+    const auto r = run_cli("check " + entry.path().string());
     CHECK_MESSAGE(r.code == 0, r.output);
     ++count;
   }

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <string>
 
+#include "cli_support.hpp"
 #include "io/io.hpp"
 #include "render/png.hpp"
 #include "render/render.hpp"
@@ -24,6 +25,13 @@ using namespace perifx;
 using namespace perifx::render;
 
 namespace {
+
+// Exit code of `perifx ARGS`; the output goes to *output when given.
+int run_cli(const std::string& args, std::string* output = nullptr) {
+  auto r = perifx::test::run_cli(args);
+  if (output) *output = r.output;
+  return r.code;
+}
 
 std::uint32_t be32(const std::string& s, std::size_t at) {
   return std::uint32_t(std::uint8_t(s[at])) << 24 | std::uint32_t(std::uint8_t(s[at + 1])) << 16 |
@@ -162,17 +170,6 @@ fs::path temp_dir(const std::string& name) {
   return dir;
 }
 
-int run_cli(const std::string& args, std::string* output = nullptr) {
-  const std::string cmd = std::string(PERIFX_CLI) + " " + args + " 2>&1";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  REQUIRE(pipe != nullptr);
-  std::string out;
-  std::array<char, 4096> buf;
-  while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
-  const int status = ::pclose(pipe);
-  if (output) *output = out;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
 
 // A ball of particles of radius 0.5 at the origin, on a jittered lattice.
 RenderScene particle_ball() {
