@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "geometry/geometry.hpp"
+#include "engine/geometry/geometry_test_support.hpp"
 
 namespace fs = std::filesystem;
 using namespace perifx;
@@ -23,30 +24,9 @@ using namespace perifx::geometry;
 
 namespace {
 
-// Fixture directory: from the build's PERIFX_SOURCE_DIR, else from this file's own location.
-fs::path data_dir() {
-#ifdef PERIFX_SOURCE_DIR
-  return fs::path(PERIFX_SOURCE_DIR) / "tests" / "engine" / "geometry" / "data";
-#else
-  return fs::path(__FILE__).parent_path() / "data";
-#endif
-}
+using perifx::test::TempDir;
+fs::path data_dir() { return perifx::test::geometry_data_dir(); }
 
-// A fresh directory under the system temp dir, removed when the test ends.
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::string pattern = (fs::temp_directory_path() / "perifx_geometry_XXXXXX").string();
-    if (mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    path = pattern;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-};
 
 void write_file(const fs::path& p, const std::string& text) {
   std::ofstream out(p);

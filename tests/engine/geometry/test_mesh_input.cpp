@@ -15,6 +15,7 @@
 
 #include "geometry/geometry.hpp"
 #include "scene/scene.hpp"
+#include "engine/geometry/geometry_test_support.hpp"
 
 namespace fs = std::filesystem;
 using namespace perifx;
@@ -22,28 +23,9 @@ using namespace perifx::geometry;
 
 namespace {
 
-fs::path data() {
-#ifdef PERIFX_SOURCE_DIR
-  return fs::path(PERIFX_SOURCE_DIR) / "tests" / "engine" / "geometry" / "data";
-#else
-  return fs::path(__FILE__).parent_path() / "data";
-#endif
-}
+using Scratch = perifx::test::TempDir;
+fs::path data() { return perifx::test::geometry_data_dir(); }
 
-struct Scratch {
-  fs::path path;
-  Scratch() {
-    std::string pattern = (fs::temp_directory_path() / "perifx_mesh_input_XXXXXX").string();
-    if (mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    path = pattern;
-  }
-  ~Scratch() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  Scratch(const Scratch&) = delete;
-  Scratch& operator=(const Scratch&) = delete;
-};
 
 template <class F>
 std::string error_of(F&& f) {
