@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <string>
 
@@ -68,6 +69,31 @@ int render_command(int argc, char** argv) {
       else if (arg == "--scene") opt.scene_file = value();
       else if (arg == "--projectile-radius") opt.projectile_radius = to_positive(arg, value());
       else if (arg == "--particle-scale") opt.particle_scale = to_positive(arg, value());
+      else if (arg == "--threads") opt.threads = int(to_integer(arg, value(), 1));
+      else if (arg == "--view") {
+        // X,Y,Z: the direction from the subject to the camera (Y up), e.g. 0,0,1 looks along -z.
+        const std::string v = value();
+        double c[3];
+        std::size_t at = 0;
+        for (int j = 0; j < 3; ++j) {
+          const auto comma = j < 2 ? v.find(',', at) : v.size();
+          if (comma == std::string::npos) throw UsageError{"--view expects X,Y,Z, got '" + v + "'"};
+          const std::string item = v.substr(at, comma - at);
+          char* end = nullptr;
+          c[j] = std::strtod(item.c_str(), &end);
+          if (item.empty() || *end != '\0' || !std::isfinite(c[j])) throw UsageError{"--view expects X,Y,Z, got '" + v + "'"};
+          at = comma + 1;
+        }
+        opt.view = Vec3(c[0], c[1], c[2]);
+        if (!(opt.view.norm() > 0)) throw UsageError{"--view needs a non-zero direction, got '" + v + "'"};
+      }
+      else if (arg == "--draw") {
+        const std::string v = value();
+        if (v == "auto") opt.draw = Draw::automatic;
+        else if (v == "particles") opt.draw = Draw::particles;
+        else if (v == "surface") opt.draw = Draw::surface;
+        else throw UsageError{"--draw expects auto, particles or surface, got '" + v + "'"};
+      }
       else if (arg == "--color-by") {
         const std::string v = value();
         if (v == "damage") opt.color_by = ColorBy::damage;

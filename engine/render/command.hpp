@@ -7,7 +7,8 @@ namespace perifx::render {
 inline constexpr const char* kRenderUsage =
     "  render RUN_DIR [--out DIR] [--width W] [--height H] [--color-by damage|material|none]\n"
     "         [--frames A:B] [--mp4] [--backend povray|builtin] [--scene SCENE.json]\n"
-    "         [--projectile-radius R] [--particle-scale S] [--quiet]\n"
+    "         [--projectile-radius R] [--particle-scale S] [--draw auto|particles|surface]\n"
+    "         [--threads N] [--view X,Y,Z] [--quiet]\n"
     "                      PNG frames (RUN_DIR/render/frame.NNNN.png) and with --mp4 a movie (ffmpeg)\n";
 
 // argv[1] is "render". Returns the process exit code (0 ok, 1 usage, 2 unreadable run directory,

@@ -17,6 +17,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <tbb/task_arena.h>
+
 #include "io/io.hpp"
 #include "render/png.hpp"
 #include "scene/scene.hpp"
@@ -82,7 +84,30 @@ struct Bounds {
     hi = hi.cwiseMax(p + Vec3::Constant(r));
   }
   bool valid() const { return lo.x() <= hi.x(); }
+  // Adds the box that holds the points (each with its radius) except the outermost `trim` fraction
+  // on each side of each axis, so a few far-flung pieces (single particles shot off by a fracture,
+  // stray vertices of tiny fragments) do not shrink the subject to a dot. Few points: all are kept.
+  void add_trimmed(const std::vector<Vec3>& points, const std::vector<double>& radius, double trim) {
+    const std::size_t n = points.size();
+    if (n == 0) return;
+    const std::size_t k = static_cast<std::size_t>(std::floor(trim * double(n)));
+    std::vector<double> a(n), b(n);
+    for (int c = 0; c < 3; ++c) {
+      for (std::size_t i = 0; i < n; ++i) {
+        const double r = i < radius.size() ? radius[i] : 0.0;
+        a[i] = points[i][c] - r;
+        b[i] = points[i][c] + r;
+      }
+      std::nth_element(a.begin(), a.begin() + std::ptrdiff_t(k), a.end());
+      std::nth_element(b.begin(), b.begin() + std::ptrdiff_t(n - 1 - k), b.end());
+      lo[c] = std::min(lo[c], a[k]);
+      hi[c] = std::max(hi[c], b[n - 1 - k]);
+    }
+  }
 };
+
+// Fraction of the points per side and axis that the camera framing may leave out (see add_trimmed).
+constexpr double kFramingTrim = 0.005;
 
 }  // namespace
 
@@ -181,11 +206,39 @@ RenderSummary render_run(const RenderOptions& opt) {
         scene_ground = scene_ground ? std::max(*scene_ground, c.point.y()) : c.point.y();
   }
 
+  // Surface or particles. The surface PLY/OBJ carries no damage, so an explicit --color-by damage
+  // draws the particles unless --draw surface insists.
+  const bool any_surface = std::any_of(frames.begin(), frames.end(), [](const FrameFiles& f) { return !f.surface.empty(); });
+  const bool any_particles =
+      std::any_of(frames.begin(), frames.end(), [](const FrameFiles& f) { return !f.particles.empty(); });
+  if (opt.draw == Draw::surface && !any_surface)
+    throw RunDataError("--draw surface: '" + run.path.string() +
+                       "' has no surface.NNNN.ply/.obj frames in the range (add \"surface_ply\" or \"obj\" to "
+                       "the scene's output.formats)");
+  if (opt.draw == Draw::particles && !any_particles)
+    throw RunDataError("--draw particles: '" + run.path.string() + "' has no particles.NNNN.vtu/.ply frames in the range");
+  bool draw_surface = opt.draw == Draw::surface;
+  if (opt.draw == Draw::automatic && any_surface) {
+    draw_surface = true;
+    if (opt.color_by == ColorBy::damage && any_particles) {
+      const auto first = std::find_if(frames.begin(), frames.end(), [](const FrameFiles& f) { return !f.surface.empty(); });
+      const SurfaceFrame probe = read_surface(first->surface);
+      if (probe.damage.size() != probe.vertex.size()) {
+        draw_surface = false;
+        note("--color-by damage: the surface files have no damage, drawing the particles (--draw surface to keep the "
+             "surface, with crack faces highlighted)");
+      }
+    }
+  }
+  // A frame without the chosen kind of file is drawn from the other one.
+  auto use_surface = [&](const FrameFiles& f) { return f.particles.empty() || (draw_surface && !f.surface.empty()); };
+
   ColorBy color_by = opt.color_by;
   FrameStyle style;
   style.particle_scale = opt.particle_scale;
 
-  // Framing: the bounds of up to five frames spread over the range (first and last included).
+  // Framing: the bounds of up to five frames spread over the range (first and last included), each
+  // without its outermost 0.5% of points per side (add_trimmed).
   Bounds bounds;
   double ground = std::numeric_limits<double>::infinity();
   bool have_damage = false, need_projectile_radius = false;
@@ -193,9 +246,11 @@ RenderSummary render_run(const RenderOptions& opt) {
   for (std::size_t s = 0; s < samples; ++s) {
     const std::size_t k = samples == 1 ? 0 : s * (frames.size() - 1) / (samples - 1);
     const FrameFiles& f = frames[k];
-    if (!f.surface.empty()) {
+    if (use_surface(f)) {
       const auto surf = read_surface(f.surface);
-      for (const auto& v : surf.vertex) bounds.add(v, 0.0), ground = std::min(ground, v.y());
+      Bounds b;
+      b.add_trimmed(surf.vertex, {}, kFramingTrim);
+      if (b.valid()) bounds.add(b.lo, 0.0), bounds.add(b.hi, 0.0), ground = std::min(ground, b.lo.y());
     } else if (!f.particles.empty()) {
       const auto p = read_particles(f.particles);
       have_damage = have_damage || p.damage.size() == p.position.size();
@@ -206,11 +261,11 @@ RenderSummary render_run(const RenderOptions& opt) {
         style.fallback_radius = 0.5 * std::cbrt(e.prod() / double(p.position.size()));
         note("no volume field: drawing particles with radius " + std::to_string(style.fallback_radius) + " m");
       }
-      for (std::size_t i = 0; i < p.position.size(); ++i) {
-        const double r = particle_radius(p, i, style);
-        bounds.add(p.position[i], r);
-        ground = std::min(ground, p.position[i].y() - r);
-      }
+      std::vector<double> radius(p.position.size());
+      for (std::size_t i = 0; i < p.position.size(); ++i) radius[i] = particle_radius(p, i, style);
+      Bounds b;
+      b.add_trimmed(p.position, radius, kFramingTrim);
+      if (b.valid()) bounds.add(b.lo, 0.0), bounds.add(b.hi, 0.0), ground = std::min(ground, b.lo.y());
     }
     for (const auto& pr : projectiles_at(run, f)) {
       if (pr.radius <= 0 && pr.id >= scene_radii.size()) need_projectile_radius = true;
@@ -240,7 +295,8 @@ RenderSummary render_run(const RenderOptions& opt) {
   // Frame the box including the ground line under it, so the contact with the ground is in view.
   Vec3 frame_lo = bounds.lo;
   frame_lo.y() = std::min(frame_lo.y(), ground);
-  const Camera camera = frame_box(frame_lo, bounds.hi, aspect);
+  if (!(opt.view.norm() > 0) || !opt.view.allFinite()) throw std::invalid_argument("the view direction must be a non-zero vector");
+  const Camera camera = frame_box(frame_lo, bounds.hi, aspect, 35.0, opt.view);
   const auto lights = default_lights(camera, frame_lo, bounds.hi);
   const double tile = std::pow(10.0, std::round(std::log10(diag / 8.0)));
 
@@ -262,7 +318,7 @@ RenderSummary render_run(const RenderOptions& opt) {
     const FrameFiles& f = frames[k];
     std::optional<ParticleFrame> particles;
     std::optional<SurfaceFrame> surface;
-    if (!f.surface.empty()) surface = read_surface(f.surface);
+    if (use_surface(f)) surface = read_surface(f.surface);
     else particles = read_particles(f.particles);
     auto projectiles = projectiles_at(run, f);
     for (auto& pr : projectiles)
@@ -275,7 +331,13 @@ RenderSummary render_run(const RenderOptions& opt) {
 
     const fs::path target = summary.output_directory / frame_png_name(f.index);
     if (summary.backend == Backend::builtin) {
-      const Image img = rasterize(scene, opt.width, opt.height);
+      Image img;
+      if (opt.threads > 0) {
+        tbb::task_arena arena(opt.threads);
+        arena.execute([&] { img = rasterize(scene, opt.width, opt.height); });
+      } else {
+        img = rasterize(scene, opt.width, opt.height);
+      }
       write_png(target, img.width, img.height, img.rgb);
     } else {
       const auto files = povray_scene(scene, opt.width, opt.height, "frame_data.inc");
@@ -287,9 +349,10 @@ RenderSummary render_run(const RenderOptions& opt) {
       fs::remove(temp / "frame.png", ec);
       // Run inside the temp directory with relative names: Debian's povray.conf restricts file I/O
       // to the current directory.
-      const int rc = run_program({povray.string(), "+Iframe.pov", "+Oframe.png", "+W" + std::to_string(opt.width),
-                                  "+H" + std::to_string(opt.height), "+A0.3", "+AM2", "+R3", "-D", "+FN", "-V", "-GA"},
-                                 temp, log);
+      std::vector<std::string> args = {povray.string(), "+Iframe.pov", "+Oframe.png", "+W" + std::to_string(opt.width),
+                                       "+H" + std::to_string(opt.height), "+A0.3", "+AM2", "+R3", "-D", "+FN", "-V", "-GA"};
+      if (opt.threads > 0) args.push_back("+WT" + std::to_string(opt.threads));  // POV-Ray's work threads
+      const int rc = run_program(args, temp, log);
       if (rc != 0 || !fs::exists(temp / "frame.png"))
         throw std::runtime_error("povray failed on frame " + std::to_string(f.index) + " (exit " + std::to_string(rc) +
                                  "); its output:\n" + log_tail(log));

@@ -15,6 +15,9 @@ namespace perifx::render {
 
 enum class Backend { automatic, povray, builtin };
 enum class ColorBy { automatic, damage, material, none };  // automatic: damage when written, else material
+// What a frame is drawn from. automatic: the surface (embedded tet mesh) when the run wrote one, except
+// that an explicit --color-by damage falls back to the particles when the surface has no damage.
+enum class Draw { automatic, particles, surface };
 
 struct RenderProgress {
   std::size_t frame = 0, frames = 0;  // frames done, of frames
@@ -30,6 +33,9 @@ struct RenderOptions {
   std::optional<std::uint64_t> first_frame, last_frame;   // inclusive run frame numbers
   bool mp4 = false;
   Backend backend = Backend::automatic;
+  Draw draw = Draw::automatic;
+  int threads = 0;                                         // 0: all cores (TBB default, POV-Ray default)
+  Vec3 view = Vec3(0.75, 0.55, 1.3);                       // direction from the subject to the camera
   std::optional<std::filesystem::path> scene_file;        // optional: projectile radii, ground plane
   std::optional<double> projectile_radius;                // overrides a missing radius column
   double particle_scale = 0.62;                            // sphere radius = scale * volume^(1/3)

@@ -371,6 +371,53 @@ TEST_CASE("render: perifx render turns a two-frame run into PNGs with the built-
   fs::remove_all(dir);
 }
 
+TEST_CASE("render: --draw chooses surface or particles, --view turns the camera, --threads limits the work") {
+  const fs::path dir = temp_dir("draw");
+  // A breakable bar with surface output: frames have both particles and surface files.
+  std::ofstream(dir / "scene.json") << R"({
+    "time": { "dt": 1e-4, "duration": 0.01, "frame_rate": 100 },
+    "materials": { "gel": { "density": 1000, "youngs_modulus": 1e6, "poisson_ratio": 0.3, "critical_stretch": 0.5 } },
+    "bodies": [ { "material": "gel", "geometry": { "type": "box", "size": [0.2, 0.1, 0.1], "edge_length": 0.025 },
+                  "transform": { "translate": [0, 0.2, 0] } } ],
+    "output": { "formats": ["vtu", "surface_ply"] }
+  })";
+  const std::string run = (dir / "run").string();
+  REQUIRE(run_cli("run " + (dir / "scene.json").string() + " --out " + run + " --frames 1 --quiet") == 0);
+  REQUIRE(fs::exists(dir / "run" / "surface.0001.ply"));
+  const std::string common = "render " + run + " --backend builtin --width 48 --height 32 --frames 1 --threads 1 --out ";
+
+  // The same frame drawn from the surface (default) and from the particles differs.
+  std::string out;
+  REQUIRE(run_cli(common + (dir / "auto").string() + " --quiet", &out) == 0);
+  REQUIRE(run_cli(common + (dir / "particles").string() + " --draw particles --quiet") == 0);
+  REQUIRE(run_cli(common + (dir / "surface").string() + " --draw surface --quiet") == 0);
+  const auto auto_px = decode_png(slurp(dir / "auto" / "frame.0001.png")).rgb;
+  CHECK(auto_px == decode_png(slurp(dir / "surface" / "frame.0001.png")).rgb);
+  CHECK(auto_px != decode_png(slurp(dir / "particles" / "frame.0001.png")).rgb);
+
+  // An explicit --color-by damage cannot colour the surface (no damage in it): particles, with a note.
+  REQUIRE(run_cli(common + (dir / "damage").string() + " --color-by damage", &out) == 0);
+  CHECK(out.find("drawing the particles") != std::string::npos);
+  CHECK(decode_png(slurp(dir / "damage" / "frame.0001.png")).rgb != auto_px);
+
+  // Another view direction gives another image; one thread gives the same pixels as the default.
+  REQUIRE(run_cli(common + (dir / "top").string() + " --view 0,1,0.2 --quiet") == 0);
+  CHECK(decode_png(slurp(dir / "top" / "frame.0001.png")).rgb != auto_px);
+  REQUIRE(run_cli("render " + run + " --backend builtin --width 48 --height 32 --frames 1 --quiet --out " +
+                  (dir / "all_threads").string()) == 0);
+  CHECK(decode_png(slurp(dir / "all_threads" / "frame.0001.png")).rgb == auto_px);
+
+  // Bad values are usage errors; --draw surface on a run without surfaces is exit 2.
+  CHECK(run_cli(common + (dir / "x").string() + " --draw mesh") == 1);
+  CHECK(run_cli(common + (dir / "x").string() + " --view 0,0,0") == 1);
+  CHECK(run_cli(common + (dir / "x").string() + " --view 1,2") == 1);
+  CHECK(run_cli(common + (dir / "x").string() + " --threads 0") == 1);
+  for (const auto& e : fs::directory_iterator(dir / "run"))
+    if (e.path().filename().string().rfind("surface.", 0) == 0) fs::remove(e.path());
+  CHECK(run_cli(common + (dir / "x").string() + " --draw surface") == 2);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("render: POV-Ray backend renders a frame (skipped without povray)") {
   RenderScene s = particle_ball();
   s.metal.push_back({Vec3(0.8, 0, 0), 0.2, Vec3::Ones()});
