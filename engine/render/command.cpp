@@ -70,6 +70,7 @@ int render_command(int argc, char** argv) {
       else if (arg == "--projectile-radius") opt.projectile_radius = to_positive(arg, value());
       else if (arg == "--particle-scale") opt.particle_scale = to_positive(arg, value());
       else if (arg == "--threads") opt.threads = int(to_integer(arg, value(), 1));
+      else if (arg == "--zoom") opt.zoom = to_positive(arg, value());
       else if (arg == "--view") {
         // X,Y,Z: the direction from the subject to the camera (Y up), e.g. 0,0,1 looks along -z.
         const std::string v = value();
@@ -105,15 +106,16 @@ int render_command(int argc, char** argv) {
         if (v == "povray") opt.backend = Backend::povray;
         else if (v == "builtin") opt.backend = Backend::builtin;
         else throw UsageError{"--backend expects povray or builtin, got '" + v + "'"};
-      } else if (arg == "--frames") {
+      } else if (arg == "--frames" || arg == "--fit-frames") {
         // A:B (inclusive), A: (from A), :B (up to B) or A (just A).
         const std::string v = value();
         const auto colon = v.find(':');
         const std::string a = v.substr(0, colon), b = colon == std::string::npos ? a : v.substr(colon + 1);
-        if (!a.empty()) opt.first_frame = std::uint64_t(to_integer(arg, a, 0));
-        if (!b.empty()) opt.last_frame = std::uint64_t(to_integer(arg, b, 0));
-        if (opt.first_frame && opt.last_frame && *opt.last_frame < *opt.first_frame)
-          throw UsageError{"--frames A:B needs A <= B, got '" + v + "'"};
+        auto& first = arg == "--frames" ? opt.first_frame : opt.fit_first;
+        auto& last = arg == "--frames" ? opt.last_frame : opt.fit_last;
+        if (!a.empty()) first = std::uint64_t(to_integer(arg, a, 0));
+        if (!b.empty()) last = std::uint64_t(to_integer(arg, b, 0));
+        if (first && last && *last < *first) throw UsageError{arg + " A:B needs A <= B, got '" + v + "'"};
       } else if (!arg.empty() && arg[0] == '-') {
         throw UsageError{"unknown option '" + arg + "'"};
       } else if (opt.run_directory.empty()) {

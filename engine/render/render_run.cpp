@@ -238,14 +238,24 @@ RenderSummary render_run(const RenderOptions& opt) {
   style.particle_scale = opt.particle_scale;
 
   // Framing: the bounds of up to five frames spread over the range (first and last included), each
-  // without its outermost 0.5% of points per side (add_trimmed).
+  // without its outermost 0.5% of points per side (add_trimmed). The range is the rendered frames, or
+  // --fit-frames (e.g. the intact object before it shatters, so flying debris may leave the picture).
+  std::vector<FrameFiles> fit = frames;
+  if (opt.fit_first || opt.fit_last) {
+    fit.clear();
+    for (const auto& f : run.frames)
+      if ((!opt.fit_first || f.index >= *opt.fit_first) && (!opt.fit_last || f.index <= *opt.fit_last)) fit.push_back(f);
+    if (fit.empty())
+      throw RunDataError("no frames of '" + run.path.string() + "' are in the --fit-frames range (it has frames " +
+                         std::to_string(run.frames.front().index) + " to " + std::to_string(run.frames.back().index) + ")");
+  }
   Bounds bounds;
   double ground = std::numeric_limits<double>::infinity();
   bool have_damage = false, need_projectile_radius = false;
-  std::size_t samples = std::min<std::size_t>(5, frames.size());
+  std::size_t samples = std::min<std::size_t>(5, fit.size());
   for (std::size_t s = 0; s < samples; ++s) {
-    const std::size_t k = samples == 1 ? 0 : s * (frames.size() - 1) / (samples - 1);
-    const FrameFiles& f = frames[k];
+    const std::size_t k = samples == 1 ? 0 : s * (fit.size() - 1) / (samples - 1);
+    const FrameFiles& f = fit[k];
     if (use_surface(f)) {
       const auto surf = read_surface(f.surface);
       Bounds b;
@@ -280,8 +290,8 @@ RenderSummary render_run(const RenderOptions& opt) {
          " m (pass --scene SCENE.json or --projectile-radius R)");
   // Projectile extents at the sampled frames (their radius is known now).
   for (std::size_t s = 0; s < samples; ++s) {
-    const std::size_t k = samples == 1 ? 0 : s * (frames.size() - 1) / (samples - 1);
-    for (const auto& pr : projectiles_at(run, frames[k])) {
+    const std::size_t k = samples == 1 ? 0 : s * (fit.size() - 1) / (samples - 1);
+    for (const auto& pr : projectiles_at(run, fit[k])) {
       const double r = pr.radius > 0 ? pr.radius : pr.id < scene_radii.size() ? scene_radii[pr.id] : style.projectile_radius;
       bounds.add(pr.center, r);
       ground = std::min(ground, pr.center.y() - r);
@@ -296,7 +306,9 @@ RenderSummary render_run(const RenderOptions& opt) {
   Vec3 frame_lo = bounds.lo;
   frame_lo.y() = std::min(frame_lo.y(), ground);
   if (!(opt.view.norm() > 0) || !opt.view.allFinite()) throw std::invalid_argument("the view direction must be a non-zero vector");
-  const Camera camera = frame_box(frame_lo, bounds.hi, aspect, 35.0, opt.view);
+  if (!(opt.zoom > 0) || !std::isfinite(opt.zoom)) throw std::invalid_argument("the zoom must be a positive number");
+  Camera camera = frame_box(frame_lo, bounds.hi, aspect, 35.0, opt.view);
+  camera.position = camera.target + (camera.position - camera.target) / opt.zoom;
   const auto lights = default_lights(camera, frame_lo, bounds.hi);
   const double tile = std::pow(10.0, std::round(std::log10(diag / 8.0)));
 

@@ -36,6 +36,8 @@ struct RenderOptions {
   Draw draw = Draw::automatic;
   int threads = 0;                                         // 0: all cores (TBB default, POV-Ray default)
   Vec3 view = Vec3(0.75, 0.55, 1.3);                       // direction from the subject to the camera
+  std::optional<std::uint64_t> fit_first, fit_last;        // frames the camera is framed on (default: the rendered ones)
+  double zoom = 1.0;                                       // > 1 moves the camera closer to the framed subject
   std::optional<std::filesystem::path> scene_file;        // optional: projectile radii, ground plane
   std::optional<double> projectile_radius;                // overrides a missing radius column
   double particle_scale = 0.62;                            // sphere radius = scale * volume^(1/3)

@@ -371,7 +371,7 @@ TEST_CASE("render: perifx render turns a two-frame run into PNGs with the built-
   fs::remove_all(dir);
 }
 
-TEST_CASE("render: --draw chooses surface or particles, --view turns the camera, --threads limits the work") {
+TEST_CASE("render: --draw chooses surface or particles, --view --zoom --fit-frames place the camera, --threads") {
   const fs::path dir = temp_dir("draw");
   // A breakable bar with surface output: frames have both particles and surface files.
   std::ofstream(dir / "scene.json") << R"({
@@ -406,12 +406,21 @@ TEST_CASE("render: --draw chooses surface or particles, --view turns the camera,
   REQUIRE(run_cli("render " + run + " --backend builtin --width 48 --height 32 --frames 1 --quiet --out " +
                   (dir / "all_threads").string()) == 0);
   CHECK(decode_png(slurp(dir / "all_threads" / "frame.0001.png")).rgb == auto_px);
+  // Zoom moves the camera; framing on frame 0 (the same bar at rest) gives the same picture here.
+  REQUIRE(run_cli(common + (dir / "zoom").string() + " --zoom 2 --quiet") == 0);
+  CHECK(decode_png(slurp(dir / "zoom" / "frame.0001.png")).rgb != auto_px);
+  REQUIRE(run_cli(common + (dir / "fit").string() + " --fit-frames 0 --quiet") == 0);
+  CHECK(fs::exists(dir / "fit" / "frame.0001.png"));
+  CHECK_FALSE(fs::exists(dir / "fit" / "frame.0000.png"));
 
   // Bad values are usage errors; --draw surface on a run without surfaces is exit 2.
   CHECK(run_cli(common + (dir / "x").string() + " --draw mesh") == 1);
   CHECK(run_cli(common + (dir / "x").string() + " --view 0,0,0") == 1);
   CHECK(run_cli(common + (dir / "x").string() + " --view 1,2") == 1);
   CHECK(run_cli(common + (dir / "x").string() + " --threads 0") == 1);
+  CHECK(run_cli(common + (dir / "x").string() + " --zoom 0") == 1);
+  CHECK(run_cli(common + (dir / "x").string() + " --fit-frames 2:1") == 1);
+  CHECK(run_cli(common + (dir / "x").string() + " --fit-frames 5:9") == 2);
   for (const auto& e : fs::directory_iterator(dir / "run"))
     if (e.path().filename().string().rfind("surface.", 0) == 0) fs::remove(e.path());
   CHECK(run_cli(common + (dir / "x").string() + " --draw surface") == 2);
