@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "io/io.hpp"
 #include "render/render_run.hpp"
@@ -49,6 +50,23 @@ double to_positive(const std::string& flag, const std::string& v) {
   return x;
 }
 
+// `count` comma-separated finite numbers.
+std::vector<double> to_numbers(const std::string& flag, const std::string& v, int count, const char* form) {
+  std::vector<double> out;
+  std::size_t at = 0;
+  for (int j = 0; j < count; ++j) {
+    const auto comma = j + 1 < count ? v.find(',', at) : v.size();
+    if (comma == std::string::npos) throw UsageError{flag + " expects " + form + ", got '" + v + "'"};
+    const std::string item = v.substr(at, comma - at);
+    char* end = nullptr;
+    const double x = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end != '\0' || !std::isfinite(x)) throw UsageError{flag + " expects " + form + ", got '" + v + "'"};
+    out.push_back(x);
+    at = comma + 1;
+  }
+  return out;
+}
+
 }  // namespace
 
 int render_command(int argc, char** argv) {
@@ -73,20 +91,15 @@ int render_command(int argc, char** argv) {
       else if (arg == "--zoom") opt.zoom = to_positive(arg, value());
       else if (arg == "--view") {
         // X,Y,Z: the direction from the subject to the camera (Y up), e.g. 0,0,1 looks along -z.
-        const std::string v = value();
-        double c[3];
-        std::size_t at = 0;
-        for (int j = 0; j < 3; ++j) {
-          const auto comma = j < 2 ? v.find(',', at) : v.size();
-          if (comma == std::string::npos) throw UsageError{"--view expects X,Y,Z, got '" + v + "'"};
-          const std::string item = v.substr(at, comma - at);
-          char* end = nullptr;
-          c[j] = std::strtod(item.c_str(), &end);
-          if (item.empty() || *end != '\0' || !std::isfinite(c[j])) throw UsageError{"--view expects X,Y,Z, got '" + v + "'"};
-          at = comma + 1;
-        }
+        const auto c = to_numbers(arg, value(), 3, "X,Y,Z");
         opt.view = Vec3(c[0], c[1], c[2]);
-        if (!(opt.view.norm() > 0)) throw UsageError{"--view needs a non-zero direction, got '" + v + "'"};
+        if (!(opt.view.norm() > 0)) throw UsageError{"--view needs a non-zero direction"};
+      } else if (arg == "--cut") {
+        // NX,NY,NZ,D: hide what lies on the side n·x > D of the plane (n is normalized here).
+        const auto c = to_numbers(arg, value(), 4, "NX,NY,NZ,D");
+        const Vec3 n(c[0], c[1], c[2]);
+        if (!(n.norm() > 0)) throw UsageError{"--cut needs a non-zero normal"};
+        opt.cut = CutPlane{n.normalized(), c[3] / n.norm()};
       }
       else if (arg == "--draw") {
         const std::string v = value();

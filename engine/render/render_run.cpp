@@ -127,6 +127,7 @@ fs::path find_program(const std::string& name) {
 RenderScene frame_scene(const ParticleFrame* particles, const SurfaceFrame* surface,
                         const std::vector<ProjectileState>& projectiles, const FrameStyle& style) {
   RenderScene s;
+  auto hidden = [&](const Vec3& p) { return style.cut && style.cut->normal.dot(p) > style.cut->offset; };
   if (surface && !surface->triangle.empty()) {
     const Vec3 neutral(0.66, 0.67, 0.70), crack(0.95, 0.42, 0.08);
     s.triangles.reserve(surface->triangle.size());
@@ -136,6 +137,7 @@ RenderScene frame_scene(const ParticleFrame* particles, const SurfaceFrame* surf
       tri.a = surface->vertex[t[0]];
       tri.b = surface->vertex[t[1]];
       tri.c = surface->vertex[t[2]];
+      if (hidden((tri.a + tri.b + tri.c) / 3.0)) continue;
       const bool is_crack = k < surface->crack.size() && surface->crack[k] != 0;
       if (is_crack) tri.color = crack;
       else if (style.color_by == ColorBy::damage && surface->damage.size() == surface->vertex.size())
@@ -149,6 +151,7 @@ RenderScene frame_scene(const ParticleFrame* particles, const SurfaceFrame* surf
     const bool by_material =
         style.color_by == ColorBy::material && particles->material.size() == particles->position.size();
     for (std::size_t i = 0; i < particles->position.size(); ++i) {
+      if (hidden(particles->position[i])) continue;
       Sphere sp;
       sp.center = particles->position[i];
       sp.radius = particle_radius(*particles, i, style);
@@ -236,6 +239,7 @@ RenderSummary render_run(const RenderOptions& opt) {
   ColorBy color_by = opt.color_by;
   FrameStyle style;
   style.particle_scale = opt.particle_scale;
+  style.cut = opt.cut;
 
   // Framing: the bounds of up to five frames spread over the range (first and last included), each
   // without its outermost 0.5% of points per side (add_trimmed). The range is the rendered frames, or

@@ -19,6 +19,12 @@ enum class ColorBy { automatic, damage, material, none };  // automatic: damage 
 // that an explicit --color-by damage falls back to the particles when the surface has no damage.
 enum class Draw { automatic, particles, surface };
 
+// A cut-away plane: what lies where normal·x > offset is left out (normal of unit length).
+struct CutPlane {
+  Vec3 normal = Vec3::UnitZ();
+  double offset = 0.0;
+};
+
 struct RenderProgress {
   std::size_t frame = 0, frames = 0;  // frames done, of frames
   std::uint64_t index = 0;            // run frame number just written
@@ -38,6 +44,7 @@ struct RenderOptions {
   Vec3 view = Vec3(0.75, 0.55, 1.3);                       // direction from the subject to the camera
   std::optional<std::uint64_t> fit_first, fit_last;        // frames the camera is framed on (default: the rendered ones)
   double zoom = 1.0;                                       // > 1 moves the camera closer to the framed subject
+  std::optional<CutPlane> cut;                             // hide one side of a plane (a cut-away view)
   std::optional<std::filesystem::path> scene_file;        // optional: projectile radii, ground plane
   std::optional<double> projectile_radius;                // overrides a missing radius column
   double particle_scale = 0.62;                            // sphere radius = scale * volume^(1/3)
@@ -65,6 +72,7 @@ struct FrameStyle {
   double particle_scale = 0.62;
   double fallback_radius = 0.01;    // particle radius when the frame has no volume field
   double projectile_radius = 0.1;   // when projectiles.csv has no radius column
+  std::optional<CutPlane> cut;      // particles whose center and triangles whose centroid lie beyond it are left out
 };
 RenderScene frame_scene(const ParticleFrame* particles, const SurfaceFrame* surface,
                         const std::vector<ProjectileState>& projectiles, const FrameStyle& style);

@@ -371,7 +371,7 @@ TEST_CASE("render: perifx render turns a two-frame run into PNGs with the built-
   fs::remove_all(dir);
 }
 
-TEST_CASE("render: --draw chooses surface or particles, --view --zoom --fit-frames place the camera, --threads") {
+TEST_CASE("render: --draw chooses surface or particles, --view --zoom --fit-frames --cut shape the view, --threads") {
   const fs::path dir = temp_dir("draw");
   // A breakable bar with surface output: frames have both particles and surface files.
   std::ofstream(dir / "scene.json") << R"({
@@ -412,6 +412,11 @@ TEST_CASE("render: --draw chooses surface or particles, --view --zoom --fit-fram
   REQUIRE(run_cli(common + (dir / "fit").string() + " --fit-frames 0 --quiet") == 0);
   CHECK(fs::exists(dir / "fit" / "frame.0001.png"));
   CHECK_FALSE(fs::exists(dir / "fit" / "frame.0000.png"));
+  // A cut through the middle of the bar hides part of it; a cut beyond it hides nothing.
+  REQUIRE(run_cli(common + (dir / "cut").string() + " --cut 0,0,2,0 --quiet") == 0);
+  CHECK(decode_png(slurp(dir / "cut" / "frame.0001.png")).rgb != auto_px);
+  REQUIRE(run_cli(common + (dir / "nocut").string() + " --cut 0,0,1,5 --quiet") == 0);
+  CHECK(decode_png(slurp(dir / "nocut" / "frame.0001.png")).rgb == auto_px);
 
   // Bad values are usage errors; --draw surface on a run without surfaces is exit 2.
   CHECK(run_cli(common + (dir / "x").string() + " --draw mesh") == 1);
@@ -419,6 +424,8 @@ TEST_CASE("render: --draw chooses surface or particles, --view --zoom --fit-fram
   CHECK(run_cli(common + (dir / "x").string() + " --view 1,2") == 1);
   CHECK(run_cli(common + (dir / "x").string() + " --threads 0") == 1);
   CHECK(run_cli(common + (dir / "x").string() + " --zoom 0") == 1);
+  CHECK(run_cli(common + (dir / "x").string() + " --cut 0,0,0,1") == 1);
+  CHECK(run_cli(common + (dir / "x").string() + " --cut 0,0,1") == 1);
   CHECK(run_cli(common + (dir / "x").string() + " --fit-frames 2:1") == 1);
   CHECK(run_cli(common + (dir / "x").string() + " --fit-frames 5:9") == 2);
   for (const auto& e : fs::directory_iterator(dir / "run"))
