@@ -1,6 +1,8 @@
 #include "compare.hpp"
 
+#include <Eigen/LU>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -157,6 +159,100 @@ std::vector<Vec3> barycenters(const std::vector<Vec3>& vertices, const RunMesh& 
   return out;
 }
 
+// Barycentric coordinates of p in tet (a, b, c, d); false for a degenerate tet.
+bool barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, std::array<double, 4>& w) {
+  Mat3 m;
+  m.col(0) = b - a;
+  m.col(1) = c - a;
+  m.col(2) = d - a;
+  const double det = m.determinant();
+  if (!(std::abs(det) > 1e-300)) return false;
+  const Vec3 l = m.inverse() * (p - a);
+  w = {1.0 - l.sum(), l[0], l[1], l[2]};
+  return true;
+}
+
+// Where each point sits in a tet mesh: the 4 vertices of its tet and its barycentric weights.
+// A point outside the mesh (a vertex of a curved boundary of another mesh) takes the tet whose
+// clamped barycentric point is nearest, with those clamped weights; `outside` is that distance.
+struct Embedding {
+  std::vector<std::array<std::uint32_t, 4>> vertex;
+  std::vector<std::array<double, 4>> weight;
+  double outside = 0.0;  // largest distance of a point from the mesh, m
+};
+
+Embedding embed(const std::vector<Vec3>& points, const std::vector<Vec3>& vertices, const RunMesh& m, const fs::path& dir) {
+  const std::size_t nt = m.tets.size();
+  for (std::size_t t = 0; t < nt; ++t)
+    for (auto v : m.tets[t])
+      if (v >= vertices.size())
+        throw CompareError(dir.string() + ": mesh.json tet " + std::to_string(t) + " names vertex " + std::to_string(v) +
+                           " but the frames have " + std::to_string(vertices.size()) + " points");
+  // Uniform grid over the mesh's bounding box, ~1 tet per cell; each tet listed in the cells its box overlaps.
+  Vec3 lo = Vec3::Constant(kInfinity), hi = -lo;
+  for (const auto& v : vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  const Vec3 ext = (hi - lo).cwiseMax(Vec3::Constant(1e-12 * (1.0 + (hi - lo).norm())));
+  const double cell = std::cbrt(ext.prod() / double(std::max<std::size_t>(nt, 1)));
+  std::array<long, 3> dim{};
+  for (int k = 0; k < 3; ++k) dim[k] = std::clamp(long(std::ceil(ext[k] / cell)), 1L, 512L);
+  auto index = [&](const Vec3& p, int k) { return std::clamp(long((p[k] - lo[k]) / ext[k] * double(dim[k])), 0L, dim[k] - 1); };
+  std::vector<std::vector<std::uint32_t>> grid(std::size_t(dim[0] * dim[1] * dim[2]));
+  auto at = [&](long i, long j, long k) -> std::vector<std::uint32_t>& { return grid[std::size_t((i * dim[1] + j) * dim[2] + k)]; };
+  for (std::size_t t = 0; t < nt; ++t) {
+    Vec3 tlo = Vec3::Constant(kInfinity), thi = -tlo;
+    for (auto v : m.tets[t]) tlo = tlo.cwiseMin(vertices[v]), thi = thi.cwiseMax(vertices[v]);
+    for (long i = index(tlo, 0); i <= index(thi, 0); ++i)
+      for (long j = index(tlo, 1); j <= index(thi, 1); ++j)
+        for (long k = index(tlo, 2); k <= index(thi, 2); ++k) at(i, j, k).push_back(std::uint32_t(t));
+  }
+  Embedding e;
+  e.vertex.resize(points.size());
+  e.weight.resize(points.size());
+  const double inside_tolerance = 1e-9;
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    const Vec3& x = points[p];
+    double best = kInfinity;
+    // Candidates: the point's own grid cell, then (only when it is in no tet there) every tet.
+    for (int pass = 0; pass < 2 && best > 0.0; ++pass) {
+      auto consider = [&](std::uint32_t t) {
+        const auto& v = m.tets[t];
+        std::array<double, 4> w;
+        if (!barycentric(x, vertices[v[0]], vertices[v[1]], vertices[v[2]], vertices[v[3]], w)) return;
+        double dist = 0.0;
+        if (*std::min_element(w.begin(), w.end()) < -inside_tolerance) {
+          double sum = 0.0;
+          for (auto& c : w) sum += (c = std::max(c, 0.0));
+          Vec3 q = Vec3::Zero();
+          for (int c = 0; c < 4; ++c) q += (w[c] /= sum) * vertices[v[c]];
+          dist = (q - x).norm();
+        }
+        if (dist < best) best = dist, e.vertex[p] = v, e.weight[p] = w;
+      };
+      if (pass == 0) {
+        for (auto t : at(index(x, 0), index(x, 1), index(x, 2))) {
+          consider(t);
+          if (best == 0.0) break;
+        }
+      } else {
+        for (std::size_t t = 0; t < nt; ++t) consider(std::uint32_t(t));
+      }
+    }
+    if (!std::isfinite(best)) throw CompareError(dir.string() + ": mesh.json has no usable tets");
+    e.outside = std::max(e.outside, best);
+  }
+  return e;
+}
+
+std::vector<Vec3> interpolate(const std::vector<Vec3>& vertices, const Embedding& e) {
+  std::vector<Vec3> out(e.vertex.size());
+  for (std::size_t p = 0; p < out.size(); ++p) {
+    Vec3 x = Vec3::Zero();
+    for (int c = 0; c < 4; ++c) x += e.weight[p][c] * vertices[e.vertex[p][c]];
+    out[p] = x;
+  }
+  return out;
+}
+
 }  // namespace
 
 void write_run_mesh(const WorldState& w, const fs::path& directory) {
@@ -190,21 +286,46 @@ CompareResult compare_runs(const fs::path& dir_a, const fs::path& dir_b) {
   r.solver_b = mb.solver;
   r.frames_a = sa.files.size();
   r.frames_b = sb.files.size();
-  if (ma.present && mb.present && ma.hash != mb.hash)
-    throw CompareError("the runs are not of the same tet mesh: " + dir_a.string() + " has " + std::to_string(ma.tet_count) +
-                       " tets (hash " + ma.hash + "), " + dir_b.string() + " has " + std::to_string(mb.tet_count) +
-                       " tets (hash " + mb.hash + "); compare runs of the same scene and resolution");
-  // How each run's frame points become the compared points (tet barycenters when the kinds differ).
-  const bool a_vertices = ma.vertices_are_particles, b_vertices = mb.vertices_are_particles;
-  const bool map_a = a_vertices && !b_vertices, map_b = b_vertices && !a_vertices;
-  if (map_a && ma.tets.empty()) throw CompareError(dir_a.string() + ": FEM run without tets in mesh.json");
-  if (map_b && mb.tets.empty()) throw CompareError(dir_b.string() + ": FEM run without tets in mesh.json");
-  r.mapping = map_a ? "run A's FEM vertices averaged per tet onto run B's particles (tet barycenters)"
-              : map_b ? "run B's FEM vertices averaged per tet onto run A's particles (tet barycenters)"
-                      : "direct, particle by particle";
-  auto points_of = [&](const Series& s, std::size_t k, bool map, const RunMesh& m, const fs::path& dir) {
+  const std::vector<Vec3> a0 = read_vtu_points(sa.files[0]), b0 = read_vtu_points(sb.files[0]);
+  r.diagonal = diagonal_of(a0);
+  if (!(r.diagonal > 0.0)) throw CompareError(dir_a.string() + ": frame 0 has a zero bounding box");
+
+  // How each run's frame points become the compared points.
+  enum class Map { direct, barycenters, interpolated };
+  Map map_a = Map::direct, map_b = Map::direct;
+  Embedding embedding;  // for Map::interpolated
+  double frame0_tolerance = 1e-9;
+  if (ma.present && mb.present && ma.hash != mb.hash) {
+    // Different meshes (e.g. a finer FEM reference): an FEM run's displacement field is linear in
+    // each tet, so it can be evaluated anywhere in the body. Interpolate the FEM run (A when it is
+    // one, else B) at the other run's frame-0 points.
+    if (ma.tets.empty() && mb.tets.empty())
+      throw CompareError("the runs are not of the same tet mesh: " + dir_a.string() + " has " + std::to_string(ma.tet_count) +
+                         " tets (hash " + ma.hash + "), " + dir_b.string() + " has " + std::to_string(mb.tet_count) +
+                         " tets (hash " + mb.hash + ") and neither is an FEM run that could be interpolated; compare "
+                         "runs of the same scene and resolution, or use an FEM run as one side");
+    const bool on_a = !ma.tets.empty();
+    embedding = on_a ? embed(b0, a0, ma, dir_a) : embed(a0, b0, mb, dir_b);
+    (on_a ? map_a : map_b) = Map::interpolated;
+    r.mapping = std::string("the meshes differ: run ") + (on_a ? "A" : "B") +
+                "'s FEM field interpolated (linear in each of its tets) at run " + (on_a ? "B" : "A") + "'s frame-0 points";
+    // Same body meshed twice: the points lie in the other mesh up to its curved-boundary facets.
+    frame0_tolerance = 0.02;
+  } else {
+    const bool a_vertices = ma.vertices_are_particles, b_vertices = mb.vertices_are_particles;
+    if (a_vertices && !b_vertices) map_a = Map::barycenters;
+    if (b_vertices && !a_vertices) map_b = Map::barycenters;
+    if (map_a == Map::barycenters && ma.tets.empty()) throw CompareError(dir_a.string() + ": FEM run without tets in mesh.json");
+    if (map_b == Map::barycenters && mb.tets.empty()) throw CompareError(dir_b.string() + ": FEM run without tets in mesh.json");
+    r.mapping = map_a == Map::barycenters ? "run A's FEM vertices averaged per tet onto run B's particles (tet barycenters)"
+                : map_b == Map::barycenters ? "run B's FEM vertices averaged per tet onto run A's particles (tet barycenters)"
+                                            : "direct, particle by particle";
+  }
+  auto points_of = [&](const Series& s, std::size_t k, Map map, const RunMesh& m, const fs::path& dir) {
     auto pts = read_vtu_points(s.files[k]);
-    return map ? barycenters(pts, m, dir) : pts;
+    if (map == Map::barycenters) return barycenters(pts, m, dir);
+    if (map == Map::interpolated) return interpolate(pts, embedding);
+    return pts;
   };
 
   const std::size_t frames = std::min(sa.files.size(), sb.files.size());
@@ -225,14 +346,15 @@ CompareResult compare_runs(const fs::path& dir_a, const fs::path& dir_b) {
                          "; compare runs of the same scene and resolution");
     if (k == 0) {
       r.points = pa.size();
-      r.diagonal = diagonal_of(map_a ? read_vtu_points(sa.files[0]) : pa);
-      if (!(r.diagonal > 0.0)) throw CompareError(dir_a.string() + ": frame 0 has a zero bounding box");
-      // Same scene ⇒ identical reference positions (up to the VTU's exact doubles and the 1/4 mean).
+      // Same scene ⇒ identical reference positions (up to the VTU's exact doubles and the 1/4 mean);
+      // different meshes of one body ⇒ the same up to curved-boundary facets.
       double worst = 0.0;
       for (std::size_t i = 0; i < pa.size(); ++i) worst = std::max(worst, (pa[i] - pb[i]).norm());
-      if (worst > 1e-9 * r.diagonal)
+      if (worst > frame0_tolerance * r.diagonal)
         throw CompareError("frame 0 differs by up to " + std::to_string(worst / r.diagonal) +
-                           " of the diagonal: the runs do not start from the same mesh (same scene and resolution?)");
+                           " of the diagonal: the runs do not start from the same " +
+                           (map_a == Map::interpolated || map_b == Map::interpolated ? "body (same scene?)"
+                                                                                        : "mesh (same scene and resolution?)"));
     }
     CompareFrame f;
     f.time_a = sa.times[k];

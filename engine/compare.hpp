@@ -2,8 +2,12 @@
 // the reference run's bounding box at frame 0:  Error = |x_p − x_p^ref| / d.
 //   PD ↔ PD, FEM ↔ FEM: particle by particle (same scene ⇒ same particles and order).
 //   PD ↔ FEM: a PD particle sits at its tet's barycenter, so the FEM run is evaluated there as the
-//   mean of the tet's 4 vertex positions (the FEM run's mesh.json gives the tets). The mesh must be
-//   the same: tet hashes agree and the FEM barycenters at frame 0 equal the PD particles.
+//   mean of the tet's 4 vertex positions (the FEM run's mesh.json gives the tets). Same mesh: tet
+//   hashes agree and the FEM barycenters at frame 0 equal the PD particles.
+//   Different meshes of one body (e.g. a finer FEM reference): the FEM run's field, linear in each
+//   of its tets, is interpolated at the other run's frame-0 points (barycentric weights found once,
+//   at frame 0; points outside the mesh, on curved boundaries, take the nearest tet's clamped
+//   weights). Needs an FEM run on one side (A preferred); two PD runs of different meshes are refused.
 // Each run directory has particles.pvd + particles.NNNN.vtu (runner) and mesh.json (written by
 // write_run_mesh at the start of a run).
 #pragma once
@@ -28,7 +32,7 @@ struct CompareFrame {
 
 struct CompareResult {
   std::string solver_a, solver_b;
-  std::string mapping;          // "direct", "fem vertices -> tet barycenters (B)", ...
+  std::string mapping;          // how the points were matched (direct, tet barycenters, interpolated)
   std::size_t points = 0;       // compared points per frame
   double diagonal = 0.0;        // d, m: bounding-box diagonal of run A at frame 0
   std::vector<CompareFrame> frames;

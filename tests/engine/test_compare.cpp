@@ -1,5 +1,6 @@
 // perifx compare (engine/compare.cpp): identical runs give exactly zero, a peridynamic run maps onto
-// an FEM run of the same scene through the tet barycenters, mismatched runs are refused.
+// an FEM run of the same scene through the tet barycenters, an FEM run of a different (finer) mesh
+// is interpolated at the other run's points, two PD runs of different meshes are refused.
 #include <doctest/doctest.h>
 #include <unistd.h>
 
@@ -76,9 +77,9 @@ TEST_CASE("compare: identical runs give exactly zero, PD vs FEM a small finite d
   CHECK(fs::exists(pd / "compare.csv"));
 }
 
-TEST_CASE("compare: runs of different meshes are refused with a clear message") {
+TEST_CASE("compare: two peridynamic runs of different meshes are refused with a clear message") {
   const auto a = run(tiny(scene::Solver::peridynamics), "coarse");
-  const auto b = run(tiny(scene::Solver::fem_linear, 0.0125), "fine");
+  const auto b = run(tiny(scene::Solver::peridynamics, 0.0125), "fine_pd");
   CHECK_THROWS_AS(compare_runs(a, b), CompareError);
   try {
     compare_runs(a, b);
@@ -86,4 +87,50 @@ TEST_CASE("compare: runs of different meshes are refused with a clear message") 
     CHECK(std::string(e.what()).find("not of the same tet mesh") != std::string::npos);
   }
   CHECK_THROWS_AS(compare_runs(a, temp_dir("empty")), CompareError);
+}
+
+TEST_CASE("compare: a finer FEM reference is interpolated at the other run's points") {
+  const auto coarse_fem = run(tiny(scene::Solver::fem_corotated), "coarse_fem");
+  const auto coarse_pd = run(tiny(scene::Solver::peridynamics), "coarse_pd2");
+  const auto fine_fem = run(tiny(scene::Solver::fem_corotated, 0.0125), "fine_fem");
+  const std::size_t pd_particles = World(tiny(scene::Solver::peridynamics)).particle_count();
+
+  // A coarse FEM run against its refinement: the coarse vertices are fine vertices at frame 0.
+  const auto fem_fem = compare_runs(fine_fem, coarse_fem);
+  CHECK(fem_fem.mapping.find("interpolated") != std::string::npos);
+  CHECK(fem_fem.points == World(tiny(scene::Solver::fem_corotated)).particle_count());  // coarse vertices
+  CHECK(fem_fem.frames[0].max_error < 1e-12);  // the coarse vertices lie in the fine mesh (box: same faces)
+  CHECK(fem_fem.max_error > 0.0);
+  CHECK(fem_fem.max_error < 0.05);
+
+  // PD particles (tet barycenters of the coarse mesh) inside the fine FEM mesh, either order.
+  const auto pd_ref = compare_runs(fine_fem, coarse_pd);
+  CHECK(pd_ref.points == pd_particles);
+  CHECK(pd_ref.frames[0].max_error < 1e-12);
+  CHECK(pd_ref.max_error > 0.0);
+  CHECK(pd_ref.max_error < 0.05);
+  const auto pd_first = compare_runs(coarse_pd, fine_fem);
+  CHECK(pd_first.points == pd_particles);
+  CHECK(pd_first.max_error == doctest::Approx(pd_ref.max_error).epsilon(0.05));
+
+  CHECK(compare_runs(fine_fem, fine_fem).max_error == 0.0);
+}
+
+TEST_CASE("compare: the interpolation is exact for a rigid translation") {
+  // No clamp, no gravity, a uniform initial velocity: both runs translate rigidly, so a fine FEM run
+  // interpolated at a coarse PD run's particles must match them to round-off in every frame.
+  auto drifting = [](scene::Solver solver, double cell) {
+    auto sc = tiny(solver, cell);
+    sc.boundary_conditions.clear();
+    sc.gravity = Vec3::Zero();
+    sc.bodies[0].velocity = Vec3(1.0, 0.5, -0.25);
+    return sc;
+  };
+  const auto fem = run(drifting(scene::Solver::fem_corotated, 0.0125), "drift_fem");
+  const auto pd = run(drifting(scene::Solver::peridynamics, 0.025), "drift_pd");
+  const auto r = compare_runs(fem, pd);
+  CHECK(r.mapping.find("interpolated") != std::string::npos);
+  CHECK(r.frames.size() == 5);
+  CHECK(r.frames.back().time_a > 0.0);
+  CHECK(r.max_error < 1e-12);
 }
