@@ -162,6 +162,7 @@ RenderScene frame_scene(const ParticleFrame* particles, const SurfaceFrame* surf
     }
   }
   for (const auto& p : projectiles) {
+    if (hidden(p.center)) continue;
     Sphere sp;
     sp.center = p.center;
     sp.radius = p.radius > 0 ? p.radius : style.projectile_radius;

@@ -72,7 +72,8 @@ struct FrameStyle {
   double particle_scale = 0.62;
   double fallback_radius = 0.01;    // particle radius when the frame has no volume field
   double projectile_radius = 0.1;   // when projectiles.csv has no radius column
-  std::optional<CutPlane> cut;      // particles whose center and triangles whose centroid lie beyond it are left out
+  // Particles and projectiles whose center, and triangles whose centroid, lie beyond it are left out.
+  std::optional<CutPlane> cut;
 };
 RenderScene frame_scene(const ParticleFrame* particles, const SurfaceFrame* surface,
                         const std::vector<ProjectileState>& projectiles, const FrameStyle& style);

@@ -434,6 +434,26 @@ TEST_CASE("render: --draw chooses surface or particles, --view --zoom --fit-fram
   fs::remove_all(dir);
 }
 
+TEST_CASE("render: a cut plane leaves out particles, triangles and projectiles beyond it") {
+  ParticleFrame p;
+  p.position = {Vec3(0, 0, 0), Vec3(0, 1, 0), Vec3(0, 2, 0)};
+  SurfaceFrame surf;
+  surf.vertex = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 0, 1), Vec3(0, 2, 0), Vec3(1, 2, 0), Vec3(0, 2, 1)};
+  surf.triangle = {{0, 1, 2}, {3, 4, 5}};
+  const std::vector<ProjectileState> balls = {{0, Vec3(0, 0.5, 0), 0.1}, {1, Vec3(0, 3, 0), 0.1}};
+  FrameStyle style;
+  style.cut = CutPlane{Vec3::UnitY(), 1.5};  // keep y <= 1.5
+  const RenderScene a = frame_scene(&p, nullptr, balls, style);
+  CHECK(a.spheres.size() == 2);
+  REQUIRE(a.metal.size() == 1);
+  CHECK(a.metal[0].center.y() == 0.5);
+  const RenderScene b = frame_scene(nullptr, &surf, balls, style);
+  REQUIRE(b.triangles.size() == 1);
+  CHECK(b.triangles[0].a.y() == 0.0);
+  style.cut.reset();
+  CHECK(frame_scene(&p, nullptr, balls, style).spheres.size() == 3);
+}
+
 TEST_CASE("render: POV-Ray backend renders a frame (skipped without povray)") {
   RenderScene s = particle_ball();
   s.metal.push_back({Vec3(0.8, 0, 0), 0.2, Vec3::Ones()});
