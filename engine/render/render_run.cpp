@@ -256,7 +256,7 @@ RenderSummary render_run(const RenderOptions& opt) {
   }
   Bounds bounds;
   double ground = std::numeric_limits<double>::infinity();
-  bool have_damage = false, need_projectile_radius = false;
+  bool need_projectile_radius = false;
   std::size_t samples = std::min<std::size_t>(5, fit.size());
   for (std::size_t s = 0; s < samples; ++s) {
     const std::size_t k = samples == 1 ? 0 : s * (fit.size() - 1) / (samples - 1);
@@ -268,7 +268,6 @@ RenderSummary render_run(const RenderOptions& opt) {
       if (b.valid()) bounds.add(b.lo, 0.0), bounds.add(b.hi, 0.0), ground = std::min(ground, b.lo.y());
     } else if (!f.particles.empty()) {
       const auto p = read_particles(f.particles);
-      have_damage = have_damage || p.damage.size() == p.position.size();
       if (p.volume.size() != p.position.size() && !p.position.empty() && s == 0) {
         Bounds b;
         for (const auto& x : p.position) b.add(x, 0.0);
@@ -303,7 +302,15 @@ RenderSummary render_run(const RenderOptions& opt) {
     }
   }
   if (scene_ground) ground = *scene_ground;
-  if (color_by == ColorBy::automatic) color_by = have_damage ? ColorBy::damage : ColorBy::material;
+  if (color_by == ColorBy::automatic) {
+    // Damage colours only say something once something is damaged: look at the last rendered frame.
+    bool damaged = false;
+    if (!frames.back().particles.empty()) {
+      const auto last = read_particles(frames.back().particles);
+      damaged = std::any_of(last.damage.begin(), last.damage.end(), [](double d) { return d > 0.0; });
+    }
+    color_by = damaged ? ColorBy::damage : ColorBy::material;
+  }
   style.color_by = color_by;
 
   const double aspect = double(opt.width) / double(opt.height);

@@ -14,7 +14,8 @@
 namespace perifx::render {
 
 enum class Backend { automatic, povray, builtin };
-enum class ColorBy { automatic, damage, material, none };  // automatic: damage when written, else material
+// automatic: damage when a particle of the last rendered frame is damaged, else material.
+enum class ColorBy { automatic, damage, material, none };
 // What a frame is drawn from. automatic: the surface (embedded tet mesh) when the run wrote one, except
 // that an explicit --color-by damage falls back to the particles when the surface has no damage.
 enum class Draw { automatic, particles, surface };

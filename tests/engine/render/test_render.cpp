@@ -399,6 +399,11 @@ TEST_CASE("render: --draw chooses surface or particles, --view --zoom --fit-fram
   REQUIRE(run_cli(common + (dir / "damage").string() + " --color-by damage", &out) == 0);
   CHECK(out.find("drawing the particles") != std::string::npos);
   CHECK(decode_png(slurp(dir / "damage" / "frame.0001.png")).rgb != auto_px);
+  // Nothing is damaged, so the automatic colouring is by material, not the all-blue damage map.
+  REQUIRE(run_cli(common + (dir / "by_material").string() + " --draw particles --color-by material --quiet") == 0);
+  const auto particles_px = decode_png(slurp(dir / "particles" / "frame.0001.png")).rgb;
+  CHECK(particles_px == decode_png(slurp(dir / "by_material" / "frame.0001.png")).rgb);
+  CHECK(particles_px != decode_png(slurp(dir / "damage" / "frame.0001.png")).rgb);
 
   // Another view direction gives another image; one thread gives the same pixels as the default.
   REQUIRE(run_cli(common + (dir / "top").string() + " --view 0,1,0.2 --quiet") == 0);
