@@ -7,7 +7,8 @@
 //   Different meshes of one body (e.g. a finer FEM reference): the FEM run's field, linear in each
 //   of its tets, is interpolated at the other run's frame-0 points (barycentric weights found once,
 //   at frame 0; points outside the mesh, on curved boundaries, take the nearest tet's clamped
-//   weights). Needs an FEM run on one side (A preferred); two PD runs of different meshes are refused.
+//   weights and are compared by motion: their frame-0 offset is subtracted). Needs an FEM run on
+//   one side (A preferred); two PD runs of different meshes are refused.
 // Each run directory has particles.pvd + particles.NNNN.vtu (runner) and mesh.json (written by
 // write_run_mesh at the start of a run).
 #pragma once
