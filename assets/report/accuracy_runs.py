@@ -12,8 +12,10 @@ For each scene S (assets/scenes/paper/S.preview.json) it runs, one after the oth
     pd       the scene as it is (peridynamics)
     table    peridynamics with Table 1's horizon and the paper's normalization (taken from
              S.full.json), i.e. the setup before assets/report/accuracy.md chose its own
-    fine     fem_corotated on a finer mesh of the same body (REFINE below: 8 cells through the
-             depth instead of 5; perifx compare interpolates it at the other run's points)
+    fine     fem_corotated on a finer mesh of the same body (REFINE below: for the bars and beams 8
+             cells through the depth instead of 5; for the creature a voxel mesh 1.5x finer than
+             creature_vib, made by make_fine_creature.mjs (needs node); perifx compare interpolates
+             it at the other run's points)
 
 and then `perifx compare` of every run against the two references (corot and fine). FEM runs whose
 stable step is below the scene's dt get --dt = 0.9 x the limit reported by `perifx info`, rounded
@@ -39,7 +41,9 @@ from poisson_stretch import frames, read_vtu  # noqa: E402  (same VTU reader)
 # clamp and grip planes of the scene (x = -0.37 for the bars, -0.46 for the beams) fall on the same
 # vertex plane as in the scene's own mesh: bars 54 -> 81 cells (x1.5), beams 50 -> 75 cells (x1.5);
 # both give 8 cells through the depth instead of 5.
-REFINE = {"fig10_soft_beam": 75, "fig10_stiff_beam": 75, "fig11_bar_swing": 81, "fig12_bar_twist": 81}
+# The creature: creature_vib's voxel size / 1.5 (68k tets instead of 20k).
+REFINE = {"fig10_soft_beam": 75, "fig10_stiff_beam": 75, "fig11_bar_swing": 81, "fig12_bar_twist": 81,
+          "fig13_creature_vibration": "creature"}
 BENDING = {"fig10_soft_beam", "fig10_stiff_beam", "fig11_bar_swing"}
 RUNS = ("corot", "linear", "pd", "table", "fine")
 
@@ -140,8 +144,14 @@ def main():
 
         def fine_edit(s):
             g = s["bodies"][0]["geometry"]
-            g.pop("edge_length", None)
-            g["resolution"] = REFINE[name]
+            if REFINE[name] == "creature":
+                mesh = os.path.join(out, "creature_vib_fine.node")
+                if not os.path.exists(mesh):
+                    sh(["node", os.path.join(HERE, "make_fine_creature.mjs"), out, "1.5"])
+                g["path"] = mesh
+            else:
+                g.pop("edge_length", None)
+                g["resolution"] = REFINE[name]
 
         plan = {"corot": (preview, "fem_corotated"), "linear": (preview, "fem_linear"), "pd": (preview, None),
                 "table": (derived_scene(preview, os.path.join(out, "table.json"), table_edit), None)}
@@ -160,7 +170,8 @@ def main():
                     dt = safe_dt(stable_limit(a.perifx, scene, solver), json.load(open(scene))["time"]["dt"])
                     if dt:
                         cmd += ["--dt", "%.3g" % dt]
-                print("$", " ".join(os.path.relpath(c, ROOT) if os.path.isabs(c) else c for c in cmd), flush=True)
+                print("$", " ".join(os.path.relpath(c, ROOT) if c.startswith(ROOT + os.sep) else c for c in cmd),
+                      flush=True)
                 sh(cmd)
             if os.path.exists(os.path.join(rdir, "summary.json")):
                 done[run] = json.load(open(os.path.join(rdir, "summary.json")))

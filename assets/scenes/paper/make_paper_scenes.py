@@ -315,13 +315,13 @@ def fig09_beam_stretch(v):
 
 # The FEM-comparison previews (Fig. 10-13) use the setup measured in assets/report/accuracy.md: the
 # discrete normalization and delta = 1.45 lambda (the paper's default factor). With Table 1's delta
-# (1.0-1.38 lambda) and the paper's constants our beams are 25-30% too soft in bending, so they
+# (1.0-1.38 lambda) and the paper's constants our beams are about 30% too soft in bending, so they
 # vibrate out of phase with FEM (max error ~20%). The full scenes keep Table 1's values: they are the
 # Table 1 timing runs (assets/report/table1.md).
 FEM_COMPARISON_NOTE = {"full": "", "preview": (
     " The preview is the accuracy-comparison setup of assets/report/accuracy.md: model.normalization "
     "discrete and delta 1.45 lambda instead of Table 1's delta (the full scene keeps Table 1's values; "
-    "with them the bending is 25-30% too soft).")}
+    "with them the bending is about 30% too soft).")}
 
 
 def fem_comparison(v, table_horizon):
