@@ -16,6 +16,11 @@ struct Bonds {
   std::vector<double> weight;                // ω_ij = δ_i/|G_i ξ| (Eq 5, 17), dimensionless
   std::vector<std::uint8_t> alive;           // 1 while the bond holds, 0 once broken (never heals)
   std::vector<double> plastic_extension;     // e^p_ij, m (Eq 11–16), state of particle i on bond i→j
+  // e^p_ji on slot k: a copy of plastic_extension[reverse[k]], kept equal bit for bit because both
+  // particles update both sides of the bond with the same operations (systems/bond_rules.hpp). It lets
+  // the force and fracture passes read the mirror side's plastic extension as a stream instead of a
+  // gather through `reverse`, and lets each particle update its own slots in place.
+  std::vector<double> plastic_extension_mirror;
   std::vector<std::uint32_t> initial_count;  // N_i per particle (Eq 19)
 
   std::size_t count() const { return neighbor.size(); }

@@ -40,6 +40,13 @@ struct ParticleModel {
   std::vector<double> b4;               // 4b, Pa/m⁵ (paper: 4·15μ/(2πδ⁵))
   std::vector<double> beta;             // β in e^d = e − β Λ θ, m (paper: δ/4)
   std::vector<double> damping;          // mass-proportional damping rate, 1/s
+  // Inelastic constants of the particle's material, per particle so a bond pass gathers them like
+  // the elastic ones (no material lookup per bond).
+  std::vector<double> yield_extension;  // Y = √(2Ψ0)/(b4 δ) (Eq 14): a bond side yields when
+                                        // |e^d − e^p| > Y·|G ξ|; ∞ = purely elastic
+  std::vector<double> plastic_cap;      // γ/|ξ| (Eq 16), dimensionless
+  std::vector<double> critical_stretch; // s_c (Eq 19); ∞ = unbreakable
+  std::vector<double> damage_alpha;     // α (Eq 19, notes.md)
 };
 
 // Per-particle results of the step's systems.
@@ -50,8 +57,8 @@ struct ParticleState {
   std::vector<Vec3> external_force;         // N, gravity and loads
   std::vector<Vec3> contact_force;          // N, particle–particle and projectile contact (contact systems)
   std::vector<double> damage;               // φ_i = 1 − n_i/N_i (Eq 19), from the end of the last step
+  std::vector<double> break_extension;      // (1 + α_i φ_i) s_c,i δ_i from that damage, m (∞: unbreakable)
   std::vector<std::uint32_t> broken_bonds;  // N_i − n_i, written with damage (damage system)
-  std::vector<double> plastic_strain;       // mean |e^p|/|ξ| over alive bonds, written with damage
 };
 
 }  // namespace perifx

@@ -18,6 +18,7 @@ const char* component_name(Component c) {
     case Component::plastic_extension: return "plastic_extension";
     case Component::bond_alive: return "bond_alive";
     case Component::damage: return "damage";
+    case Component::fracture_threshold: return "fracture_threshold";
     case Component::internal_force: return "internal_force";
     case Component::external_force: return "external_force";
     case Component::contact_force: return "contact_force";

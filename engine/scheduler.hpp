@@ -28,6 +28,7 @@ enum class Component : std::uint8_t {
   plastic_extension,
   bond_alive,
   damage,
+  fracture_threshold,
   internal_force,
   external_force,
   contact_force,

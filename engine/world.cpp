@@ -110,13 +110,20 @@ std::vector<FieldView> World::fields() const {
   // Derived fields are refreshed on request, not every step.
   w.derived.displacement.resize(n);
   w.derived.alive_bonds.resize(n);
+  w.derived.plastic_strain.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     w.derived.displacement[i] = p.position[i] - p.reference_position[i];
     std::uint32_t alive = 0;
-    for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) alive += w.bonds.alive[k];
+    double plastic = 0.0;
+    for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) {
+      if (!w.bonds.alive[k]) continue;
+      ++alive;
+      plastic += std::abs(w.bonds.plastic_extension[k]) / w.bonds.reference_length[k];
+    }
     w.derived.alive_bonds[i] = alive;
+    w.derived.plastic_strain[i] = alive ? plastic / double(alive) : 0.0;
   }
-  // damage, broken_bonds and plastic_strain are kept current by the damage system (damage.cpp).
+  // damage and broken_bonds are kept current by the damage system (damage.cpp) or the bond pass.
   w.derived.fragment_count = systems::compute_fragments(w, w.derived.fragment_id);
   auto vec = [n](const char* name, const std::vector<Vec3>& a, const char* unit, const char* doc) {
     return FieldView{name, FieldType::f64, 3, FieldLocation::particle, a.data(), n, unit, doc};
@@ -135,7 +142,7 @@ std::vector<FieldView> World::fields() const {
                 "bonds still holding"},
       FieldView{"broken_bonds", FieldType::u32, 1, FieldLocation::particle, w.state.broken_bonds.data(), n, "1",
                 "N − n: bonds broken since setup"},
-      f64("plastic_strain", w.state.plastic_strain, "1", "mean |e^p|/|ξ| over alive bonds (Eq 11–16)"),
+      f64("plastic_strain", w.derived.plastic_strain, "1", "mean |e^p|/|ξ| over alive bonds (Eq 11–16)"),
       FieldView{"fragment_id", FieldType::u32, 1, FieldLocation::particle, w.derived.fragment_id.data(), n, "1",
                 "connected component of alive bonds: its smallest particle index"},
       f64("volume", p.volume, "m^3", "particle volume V"),

@@ -41,6 +41,7 @@ struct BodyInfo {
 struct DerivedFields {
   std::vector<Vec3> displacement;          // y − x, m
   std::vector<std::uint32_t> alive_bonds;  // n_i
+  std::vector<double> plastic_strain;      // mean |e^p_ij|/|ξ_ij| over alive bonds (0 with none)
   std::vector<std::uint32_t> fragment_id;  // connected component of alive bonds (smallest particle index)
   std::size_t fragment_count = 0;
 };

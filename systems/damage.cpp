@@ -1,13 +1,18 @@
 // Damage system: Eq 19's damage φ_i = 1 − n_i/N_i (n_i alive bonds, N_i bonds at setup, i.e. after
-// initial cracks removed theirs), plus two per-particle output measures:
-//   broken_bonds_i   = N_i − n_i
-//   plastic_strain_i = mean over alive bonds i→j of |e^p_ij|/|ξ_ij|   (0 with no alive bond)
-// This is the only place damage is computed (World::fields() just exposes it). It runs after
-// fracture, so the fracture test of the next step sees the damage of the start of that step.
-// Reads:  bond_alive, plastic_extension.   Writes: damage (φ, broken_bonds, plastic_strain).
-// Scheduled only when world.any_fracture or world.any_plastic; setup calls the kernel once.
+// initial cracks removed theirs), and broken_bonds_i = N_i − n_i for output. (The plastic measure,
+// mean |e^p|/|ξ|, is an output-only field computed when fields are requested: World::fields.)
+// It runs after fracture. (With the fused bond pass, bond_pass.cpp counts the alive bonds while it
+// decides the breaks, and this system is not scheduled.)
+// Reads:  bond_alive.   Writes: damage (φ, broken_bonds).
+//
+// Fracture-threshold system: the break extension B_i = (1 + α_i φ_i) s_c,i δ_i (Eq 19, notes.md;
+// see side_exceeds in bond_rules.hpp), ∞ when unbreakable, from the damage just computed; the
+// fracture test of the next step reads it, so that test sees the damage of the start of its step.
+// Reads:  damage.   Writes: fracture_threshold (ParticleState::break_extension).
+// Both are scheduled only when world.any_fracture; setup calls the threshold kernel once.
 #include <cmath>
 
+#include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
 
@@ -18,24 +23,29 @@ void compute_damage(WorldState& w) {
   auto& s = w.state;
   parallel_for_each(w.particles.count(), [&](std::size_t i) {
     std::uint32_t alive = 0;
-    double plastic = 0.0;
-    for (std::uint32_t k = b.offsets[i], end = b.offsets[i + 1]; k < end; ++k) {
-      if (!b.alive[k]) continue;
-      ++alive;
-      plastic += std::abs(b.plastic_extension[k]) / b.reference_length[k];
-    }
-    const std::uint32_t initial = b.initial_count[i];
-    s.damage[i] = initial ? 1.0 - double(alive) / double(initial) : 0.0;
-    s.broken_bonds[i] = initial - alive;
-    s.plastic_strain[i] = alive ? plastic / double(alive) : 0.0;
+    for (std::uint32_t k = b.offsets[i], end = b.offsets[i + 1]; k < end; ++k) alive += b.alive[k];
+    store_damage(s, i, b.initial_count[i], alive);
   }, 1024);
+}
+
+void compute_fracture_thresholds(WorldState& w) {
+  const auto& md = w.model;
+  auto& s = w.state;
+  parallel_for_each(w.particles.count(), [&](std::size_t i) {
+    s.break_extension[i] = break_extension(md.critical_stretch[i], md.damage_alpha[i], s.damage[i], md.horizon[i]);
+  }, 4096);
 }
 
 SystemDecl damage_system(WorldState& w) {
   return {"damage",
-          {Component::bond_alive, Component::plastic_extension},
+          {Component::bond_alive},
           {Component::damage},
           [&w] { compute_damage(w); }};
+}
+
+SystemDecl fracture_threshold_system(WorldState& w) {
+  return {"fracture_threshold", {Component::damage}, {Component::fracture_threshold},
+          [&w] { compute_fracture_thresholds(w); }};
 }
 
 }  // namespace perifx::systems

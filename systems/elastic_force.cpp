@@ -3,9 +3,10 @@
 //   A_ij = ω_ij (Λ_ij P_i + b4_i (e_ij − e^p_ij)),   P_i = (a4_i − b4_i β_i) θ_i,
 // which is A_dil + A_dev of Eq 4 and Eq 12 (Eq 8 when e^p = 0) with a4 = 4a, b4 = 4b, β = δ/4.
 // e_ji = e_ij and Λ_ji = Λ_ij, so A_ji needs only P_j, b4_j and, with anisotropy or plasticity,
-// the mirror bond's ω_ji and e^p_ji. Each particle gathers its own sum (no scatter, no atomics):
+// the mirror bond's ω_ji and e^p_ji (Bonds::plastic_extension_mirror). Each particle gathers its own sum (no scatter, no atomics):
 // the result is independent of thread count, and pair forces are equal and opposite to round-off.
 // Reads:  position, dilatation, plastic_extension, bond_alive.   Writes: internal_force.
+#include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
 
@@ -14,7 +15,8 @@ namespace {
 
 // Visits every alive bond i→j of particle i with A_ij, A_ji and 1/|y_j − y_i|; the paired force
 // density of the bond is ½ (A_ij + A_ji) (y_j − y_i)/|y_j − y_i|. One definition serves the force
-// and the stress, so they can never disagree.
+// and the stress, so they can never disagree. e^p_ji is read from the bond's mirror copy (a stream),
+// ω_ji, with anisotropy only, through `reverse` (a gather).
 template <bool kAnisotropic, bool kPlastic, class Sink>
 inline void visit_bonds(const WorldState& w, const std::vector<Vec3>& y, const std::vector<double>& coupling,
                         std::size_t i, Sink&& sink) {
@@ -27,26 +29,15 @@ inline void visit_bonds(const WorldState& w, const std::vector<Vec3>& y, const s
     if (!b.alive[k]) continue;
     const std::uint32_t j = b.neighbor[k];
     const Vec3 dy = y[j] - yi;
-    const double len = dy.norm();
-    if (!(len > 0.0)) continue;  // coincident particles: no direction, no force
-    const double inv_len = 1.0 / len;
-    const double r = b.reference_length[k];
-    const double e = len - r;
-    const double lambda = dy.dot(x[j] - xi) * inv_len / r;
+    BondGeometry g;
+    if (!bond_geometry(dy, x[j] - xi, b.reference_length[k], g)) continue;
     const double w_ij = b.weight[k];
-    double e_ij = e, e_ji = e;
-    double w_ji = w_ij;
-    if constexpr (kAnisotropic || kPlastic) {
-      const std::uint32_t m = b.reverse[k];
-      if constexpr (kAnisotropic) w_ji = b.weight[m];
-      if constexpr (kPlastic) {
-        e_ij -= b.plastic_extension[k];
-        e_ji -= b.plastic_extension[m];
-      }
-    }
-    const double a_ij = w_ij * (lambda * p_i + b4_i * e_ij);
-    const double a_ji = w_ji * (lambda * coupling[j] + b4[j] * e_ji);
-    sink(j, a_ij, a_ji, inv_len, dy);
+    const double w_ji = kAnisotropic ? b.weight[b.reverse[k]] : w_ij;
+    const double e_ij = kPlastic ? g.extension - b.plastic_extension[k] : g.extension;
+    const double e_ji = kPlastic ? g.extension - b.plastic_extension_mirror[k] : g.extension;
+    const double a_ij = w_ij * (g.cosine * p_i + b4_i * e_ij);
+    const double a_ji = w_ji * (g.cosine * coupling[j] + b4[j] * e_ji);
+    sink(j, a_ij, a_ji, g.inverse_length, dy);
   }
 }
 

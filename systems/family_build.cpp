@@ -1,7 +1,7 @@
 // Family build (setup, §5.2 and notes.md "Mesh embedding and family").
 // Reads:  particles.reference_position, particles.body_id, particles.material_id, model.horizon,
 //         the embedded mesh's face adjacency (mesh rule), scene materials (G, Eq 17).
-// Writes: bonds (offsets, neighbor, reverse, reference_length, weight, alive, plastic_extension,
+// Writes: bonds (offsets, neighbor, reverse, reference_length, weight, alive, plastic_extension(_mirror),
 //         initial_count).
 //
 // Mesh rule (default): j is in i's family when |x_j − x_i| ≤ δ and j is reachable from i through
@@ -131,6 +131,7 @@ void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>
   b.weight.resize(m);
   b.alive.assign(m, 1);
   b.plastic_extension.assign(m, 0.0);
+  b.plastic_extension_mirror.assign(m, 0.0);
   b.initial_count.resize(n);
   parallel_for_each(n, [&](std::size_t i) {
     const Mat3& G = w.scene.materials[w.particles.material_id[i]].anisotropy;

@@ -1,49 +1,45 @@
 // Fracture system: Eq 18–19 as notes.md ("Fracture — one decision") reads them.
-// For the directed bond i→j with extension e = |y_j − y_i| − |ξ| > 0 (compression never breaks):
-//   measure_ij   = (e − e^p_ij)/|ξ| / ω_ij            (s^e/ω; = (e − e^p)/δ for ω = δ/|ξ|)
-//   threshold_ij = (1 + α_i φ_i) s_c,i                 (material of i; s_c = ∞ never breaks)
-// and the same for the mirror direction j→i with e^p_ji, ω_ji, φ_j and j's material. The physical
-// bond breaks, for both particles at once, when either direction exceeds its threshold; it never
-// heals. φ is the damage from the start of the step (the damage system runs after this one).
-// The symmetric predicate is evaluated in i's loop for bond k and in j's loop for its mirror; it is
-// computed from the pair (lower index, higher index) in the same operation order from both ends, so
-// both loops get the same bits and each writes only its own alive[k]: no atomics, no dependence on
-// thread count or visiting order.
-// Reads:  position, plastic_extension, damage, bond_alive.   Writes: bond_alive.
-// Runs at the end of the step (after kick_end), only when world.any_fracture.
-#include <cmath>
-
+// For the directed bond i→j in tension, e = |y_j − y_i| − |ξ| > 0 (compression never breaks):
+//   side i exceeds:  (e − e^p_ij)/(|ξ| ω_ij) > (1 + α_i φ_i) s_c,i
+// and the same for side j with e^p_ji, ω_ji and j's damage and material (side_breaks in
+// bond_rules.hpp, which compares extensions against the particle's break extension (1 + αφ) s_c δ).
+// The physical bond breaks, for both particles at once, when either side exceeds; it never heals.
+// φ is the damage from the start of the step: break extensions are refreshed by
+// fracture_threshold_system after the damage system has run.
+// Each particle evaluates the predicate for its own slot k; it is an OR of two bit-symmetric side
+// tests (bond_rules.hpp), so j's loop gets the same answer for the mirror slot, and each loop writes
+// only its own alive[k]: no atomics, no dependence on thread count.
+// Reads:  position, plastic_extension, fracture_threshold, bond_alive.   Writes: bond_alive.
+// Runs at the end of the step (after kick_end), only when world.any_fracture and the scene runs the
+// bond systems separately (otherwise bond_pass.cpp applies the same test in its fused pass, on the
+// same positions and plastic extensions).
+#include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
 
 namespace perifx::systems {
+namespace {
+
+template <bool kAnisotropic>
+bool breaks(const WorldState& w, const std::vector<Vec3>& y, std::uint32_t i, std::uint32_t k) {
+  const Bonds& b = w.bonds;
+  const auto& x = w.particles.reference_position;
+  const std::uint32_t j = b.neighbor[k];
+  const double r = b.reference_length[k];
+  BondGeometry g;
+  if (!bond_geometry(y[j] - y[i], x[j] - x[i], r, g) || !(g.extension > 0.0)) return false;
+  const double w_ij = b.weight[k];
+  const double w_ji = kAnisotropic ? b.weight[b.reverse[k]] : w_ij;
+  const double ep_ij = w.any_plastic ? b.plastic_extension[k] : 0.0;
+  const double ep_ji = w.any_plastic ? b.plastic_extension_mirror[k] : 0.0;
+  return side_breaks<kAnisotropic>(g, r, w_ij, ep_ij, side_constants(w.model, w.state, i)) ||
+         side_breaks<kAnisotropic>(g, r, w_ji, ep_ji, side_constants(w.model, w.state, j));
+}
+
+}  // namespace
 
 bool bond_breaks(const WorldState& w, const std::vector<Vec3>& y, std::uint32_t owner, std::uint32_t k) {
-  const Bonds& b = w.bonds;
-  const auto& p = w.particles;
-  const auto& materials = w.scene.materials;
-  const std::uint32_t m = b.reverse[k];
-  // Canonical orientation: (lo, hi) particles and (k_lo, k_hi) = bonds lo→hi and hi→lo.
-  std::uint32_t i = owner;
-  std::uint32_t j = b.neighbor[k];
-  std::uint32_t k_lo = k, k_hi = m;
-  if (j < i) std::swap(i, j), std::swap(k_lo, k_hi);
-  const double len = (y[j] - y[i]).norm();
-  const double r = b.reference_length[k_lo];
-  const double e = len - r;
-  if (!(e > 0.0)) return false;  // compression (or NaN-free rest) never breaks
-  auto exceeds = [&](std::uint32_t bond, std::uint32_t particle) {
-    const auto& mat = materials[p.material_id[particle]];
-    const double s_c = mat.critical_stretch;
-    if (!std::isfinite(s_c)) return false;
-    const double plastic = w.any_plastic ? b.plastic_extension[bond] : 0.0;
-    const double measure = (e - plastic) / r / b.weight[bond];
-    const double threshold = (1.0 + mat.damage_alpha * w.state.damage[particle]) * s_c;
-    return measure > threshold;
-  };
-  const bool lo_breaks = exceeds(k_lo, i);
-  const bool hi_breaks = exceeds(k_hi, j);
-  return lo_breaks || hi_breaks;
+  return w.any_anisotropic ? breaks<true>(w, y, owner, k) : breaks<false>(w, y, owner, k);
 }
 
 void update_fracture(WorldState& w, const std::vector<Vec3>& y) {
@@ -56,7 +52,7 @@ void update_fracture(WorldState& w, const std::vector<Vec3>& y) {
 
 SystemDecl fracture_system(WorldState& w) {
   return {"fracture",
-          {Component::position, Component::plastic_extension, Component::damage, Component::bond_alive},
+          {Component::position, Component::plastic_extension, Component::fracture_threshold, Component::bond_alive},
           {Component::bond_alive},
           [&w] { update_fracture(w, w.particles.position); }};
 }

@@ -98,6 +98,7 @@ std::size_t remove_cracked_bonds(WorldState& w, const std::vector<scene::Crack>&
       out.weight.push_back(b.weight[k]);
       out.alive.push_back(b.alive[k]);
       out.plastic_extension.push_back(b.plastic_extension[k]);
+      out.plastic_extension_mirror.push_back(b.plastic_extension_mirror[k]);
     }
     out.offsets[i + 1] = static_cast<std::uint32_t>(out.neighbor.size());
     out.initial_count[i] = out.offsets[i + 1] - out.offsets[i];

@@ -11,7 +11,11 @@
 // back the paper's constants exactly.
 // Reads:  bonds (weight, reference_length, neighbor), particles.volume, particles.material_id,
 //         model.horizon, scene materials.
-// Writes: model.dilatation_scale, model.a4, model.b4, model.beta, model.damping.
+// Writes: model.dilatation_scale, model.a4, model.b4, model.beta, model.damping and the material's
+//         inelastic constants per particle (yield_extension = √(2Ψ0)/(b4 δ), plastic_cap, critical_stretch,
+//         damage_alpha).
+#include <cmath>
+
 #include "parallel.hpp"
 #include "systems.hpp"
 
@@ -25,6 +29,10 @@ void compute_model_constants(WorldState& w) {
   md.b4.resize(n);
   md.beta.resize(n);
   md.damping.resize(n);
+  md.yield_extension.resize(n);
+  md.plastic_cap.resize(n);
+  md.critical_stretch.resize(n);
+  md.damage_alpha.resize(n);
   const bool discrete = w.scene.normalization == scene::Normalization::discrete;
   parallel_for_each(n, [&](std::size_t i) {
     const auto& mat = w.scene.materials[w.particles.material_id[i]];
@@ -63,6 +71,12 @@ void compute_model_constants(WorldState& w) {
     md.b4[i] = 4.0 * b;
     md.beta[i] = beta;
     md.damping[i] = mat.damping;
+    // Ψ0 = ∞ or b4 = 0 (an isolated particle) give ∞: never yields.
+    const double yield_ext = std::sqrt(2.0 * mat.yield_energy) / (4.0 * b * delta);
+    md.yield_extension[i] = std::isnan(yield_ext) ? kInfinity : yield_ext;
+    md.plastic_cap[i] = mat.plastic_cap_ratio;
+    md.critical_stretch[i] = mat.critical_stretch;
+    md.damage_alpha[i] = mat.damage_alpha;
   });
 }
 

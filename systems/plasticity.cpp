@@ -1,61 +1,60 @@
 // Plasticity system: Eq 11–16 with the consistent return of notes.md ("Plasticity — one decision").
 // Per directed alive bond k = i→j (e^p_ij is a state of particle i on that bond):
-//   e      = |y_j − y_i| − |ξ|,   Λ = n_ij · ξ/|ξ|                              (Eq 7, as in dilatation)
+//   e, Λ   from the positions                                                   (Eq 7, bond_geometry)
 //   A_dev  = ω_ij b4_i (e − β_i Λ θ_i − e^p_ij)  = 4 ω b (e^d − e^p)            (Eq 12, trial)
-//   f      = A_dev²/2 − Ψ0                                                      (Eq 13)
-//   f > 0: A_c = √(2Ψ0) sign(A_dev),  Δe^p = (A_dev − A_c)/(ω_ij b4_i)         (Eq 14–15, consistent)
-//   e^p   ← (e^p + Δe^p)·min(1, γ/|e^p + Δe^p|),  γ = plastic_cap_ratio·|ξ|   (Eq 16)
-// Ψ0 = ∞ (material of particle i) means purely elastic: the bond is skipped. Each bond is updated in
-// place by its own particle's loop only, so the result does not depend on thread count.
-// Reads:  position, dilatation, bond_alive.   Writes: plastic_extension.
-// Scheduled after dilatation and before elastic_force, only when world.any_plastic.
-#include <cmath>
-
+//   |A_dev| > A_c = √(2Ψ0):  e^p += (A_dev − A_c sign A_dev)/(ω_ij b4_i)        (Eq 13–15, consistent)
+//   e^p   ← clamp(e^p, ±γ),  γ = plastic_cap·|ξ|                                (Eq 16)
+// (plastic_return in bond_rules.hpp, which evaluates it divided through by ω b4). Particle i's loop
+// updates both sides of its bond k: its own e^p_ij (plastic_extension[k]) and, with j's constants,
+// e^p_ji (plastic_extension_mirror[k]); j's loop computes the same two numbers for its mirror slot,
+// so the copies stay bit-identical and every slot is written only by its owner: in place, no
+// atomics, independent of thread count. Ψ0 = ∞ never yields.
+// Reads:  position, dilatation, plastic_extension, bond_alive.   Writes: plastic_extension.
+// Scheduled after dilatation and before elastic_force, only when world.any_plastic and the scene
+// runs the bond systems separately (otherwise bond_pass.cpp applies the same rule in its fused pass).
+#include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
 
 namespace perifx::systems {
+namespace {
 
-void update_plastic_extension(WorldState& w, const std::vector<Vec3>& y, const std::vector<double>& theta) {
+template <bool kAnisotropic>
+void plastic_pass(WorldState& w, const std::vector<Vec3>& y) {
   Bonds& b = w.bonds;
   const auto& x = w.particles.reference_position;
-  const auto& md = w.model;
-  const auto& materials = w.scene.materials;
-  const auto& material_id = w.particles.material_id;
   parallel_for_each(w.particles.count(), [&](std::size_t i) {
-    const auto& mat = materials[material_id[i]];
-    const double psi0 = mat.yield_energy;
-    if (!std::isfinite(psi0)) return;  // purely elastic material
-    const double a_c = std::sqrt(2.0 * psi0);
-    const double cap_ratio = mat.plastic_cap_ratio;
     const Vec3 yi = y[i], xi = x[i];
-    const double b4_i = md.b4[i], beta_theta = md.beta[i] * theta[i];
+    const SideConstants side_i = side_constants(w.model, w.state, i);
     for (std::uint32_t k = b.offsets[i], end = b.offsets[i + 1]; k < end; ++k) {
       if (!b.alive[k]) continue;
       const std::uint32_t j = b.neighbor[k];
-      const Vec3 dy = y[j] - yi;
-      const double len = dy.norm();
-      if (!(len > 0.0)) continue;  // collapsed bond: no direction, no force, no plastic flow
       const double r = b.reference_length[k];
-      const double e = len - r;
-      const double lambda = dy.dot(x[j] - xi) / (len * r);
-      const double stiffness = b.weight[k] * b4_i;  // ω_ij b4_i
-      double ep = b.plastic_extension[k];
-      const double a_dev = stiffness * (e - beta_theta * lambda - ep);
-      if (0.5 * a_dev * a_dev <= psi0) continue;  // inside the yield surface: elastic
-      ep += (a_dev - std::copysign(a_c, a_dev)) / stiffness;
-      const double cap = cap_ratio * r;
-      if (std::abs(ep) > cap) ep = std::copysign(cap, ep);
-      b.plastic_extension[k] = ep;
+      BondGeometry g;
+      if (!bond_geometry(y[j] - yi, x[j] - xi, r, g)) continue;
+      const double w_ij = b.weight[k];
+      const double w_ji = kAnisotropic ? b.weight[b.reverse[k]] : w_ij;
+      const SideConstants side_j = side_constants(w.model, w.state, j);
+      const double ep_ij = side_plastic_extension<kAnisotropic>(g, r, w_ij, b.plastic_extension[k], side_i);
+      const double ep_ji = side_plastic_extension<kAnisotropic>(g, r, w_ji, b.plastic_extension_mirror[k], side_j);
+      b.plastic_extension[k] = ep_ij;
+      b.plastic_extension_mirror[k] = ep_ji;
     }
   }, 256);
 }
 
+}  // namespace
+
+void update_plastic_extension(WorldState& w, const std::vector<Vec3>& y) {
+  if (w.any_anisotropic) plastic_pass<true>(w, y);
+  else plastic_pass<false>(w, y);
+}
+
 SystemDecl plasticity_system(WorldState& w) {
   return {"plasticity",
-          {Component::position, Component::dilatation, Component::bond_alive},
+          {Component::position, Component::dilatation, Component::plastic_extension, Component::bond_alive},
           {Component::plastic_extension},
-          [&w] { update_plastic_extension(w, w.particles.position, w.state.dilatation); }};
+          [&w] { update_plastic_extension(w, w.particles.position); }};
 }
 
 }  // namespace perifx::systems

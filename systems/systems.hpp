@@ -2,8 +2,11 @@
 // comment names the paper's equations it implements and the components it reads and writes.
 //
 // Per-step order (the scheduler derives the actual graph from the declared reads/writes):
-//   kick_begin → boundary_conditions → drift → colliders → dilatation → (plasticity) → elastic_force
-//   external_loads (independent of the chain above)  → kick_end → (fracture → damage)
+//   kick_begin → boundary_conditions → drift → colliders → (contact) → dilatation → (plasticity)
+//   → elastic_force;  external_loads (independent of the chain above)  → kick_end → (fracture → damage)
+//   → (fracture_threshold)
+// or, with plasticity or fracture and model.fuse_bond_systems (the default), dilatation → bond_pass
+// (plasticity + elastic_force + fracture + damage in one pass) → kick_end → fracture_threshold
 //   → (crack_faces → mesh_split) → mesh_vertices      (embedded mesh, §5.2)
 // i.e. velocity Verlet (kick–drift–kick), with constraints applied to the velocity before the drift.
 #pragma once
@@ -44,15 +47,20 @@ void compute_internal_force(const WorldState& world, const std::vector<Vec3>& y,
 // neighbours' constants, which differ between the lattice's tet types.)
 void compute_virial_stress(const WorldState& world, const std::vector<Vec3>& y,
                            const std::vector<double>& coupling, std::vector<Mat3>& stress);
-// plasticity.cpp: Eq 11–16 consistent return, in place on bonds.plastic_extension, for positions y
-// and dilatations theta (θ_i, not P_i).
-void update_plastic_extension(WorldState& world, const std::vector<Vec3>& y, const std::vector<double>& theta);
+// plasticity.cpp: Eq 11–16 consistent return, in place on bonds.plastic_extension (and its mirror
+// copy), for positions y and the dilatations in world.state.
+void update_plastic_extension(WorldState& world, const std::vector<Vec3>& y);
 // fracture.cpp: the symmetric break predicate of the physical bond containing directed bond k of
 // particle `owner` (Eq 18–19, notes.md), and the pass that applies it to every alive bond.
 bool bond_breaks(const WorldState& world, const std::vector<Vec3>& y, std::uint32_t owner, std::uint32_t k);
 void update_fracture(WorldState& world, const std::vector<Vec3>& y);
-// damage.cpp: φ, broken_bonds and plastic_strain per particle from the bonds.
+// damage.cpp: φ and broken_bonds per particle from the bonds; fracture thresholds
+// (1 + αφ) s_c per particle from the damage.
 void compute_damage(WorldState& world);
+void compute_fracture_thresholds(WorldState& world);
+// bond_pass.cpp: plasticity, elastic force, fracture test and damage fused in one pass over the bonds
+// (same bits as the separate kernels); force for positions y.
+void run_bond_pass(WorldState& world, const std::vector<Vec3>& y, std::vector<Vec3>& force);
 // fragments.cpp: connected components of alive bonds; id = smallest particle index in the
 // component. Returns the number of components.
 std::size_t compute_fragments(const WorldState& world, std::vector<std::uint32_t>& fragment_id);
@@ -86,6 +94,8 @@ SystemDecl projectile_contact_system(WorldState& world);
 SystemDecl plasticity_system(WorldState& world);
 SystemDecl fracture_system(WorldState& world);
 SystemDecl damage_system(WorldState& world);
+SystemDecl fracture_threshold_system(WorldState& world);
+SystemDecl bond_pass_system(WorldState& world);  // fused plasticity + elastic_force + fracture + damage
 SystemDecl crack_face_system(WorldState& world);
 SystemDecl mesh_split_system(WorldState& world);
 SystemDecl mesh_vertex_system(WorldState& world);

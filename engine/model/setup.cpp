@@ -60,9 +60,9 @@ void allocate_state(WorldState& w) {
   s.internal_force.assign(n, Vec3::Zero());
   s.external_force.assign(n, Vec3::Zero());
   s.damage.assign(n, 0.0);
+  s.break_extension.assign(n, kInfinity);
   s.contact_force.assign(n, Vec3::Zero());
   s.broken_bonds.assign(n, 0);
-  s.plastic_strain.assign(n, 0.0);
 }
 
 }  // namespace
@@ -191,6 +191,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     systems::remove_cracked_bonds(w, scene.cracks);
     systems::setup_embedded_mesh(w, adjacency);  // after the bonds: a face pair without one starts cracked
     systems::compute_model_constants(w);
+    systems::compute_fracture_thresholds(w);
     // Initial acceleration for the first kick of velocity Verlet.
     systems::compute_dilatation(w, p.position, w.state.dilatation, w.state.dilatation_coupling);
     systems::compute_internal_force(w, p.position, w.state.dilatation_coupling, w.state.internal_force);
@@ -210,19 +211,27 @@ void add_step_systems(WorldState& w, Scheduler& scheduler) {
   scheduler.add(systems::drift_system(w));
   if (!w.projectiles.bodies.empty()) scheduler.add(systems::projectile_drift_system(w));
   scheduler.add(systems::collider_system(w));
+  // Contact reads the bonds as they were at the start of the step (before this step's breaks).
+  if (w.contact.enabled) scheduler.add(systems::contact_system(w));
+  const bool inelastic = w.any_plastic || w.any_fracture;
+  const bool fused = inelastic && w.scene.fuse_bond_systems;
   if (w.scene.solver != scene::Solver::peridynamics) {
     scheduler.add(systems::fem_force_system(w));
   } else {
     scheduler.add(systems::dilatation_system(w));
-    if (w.any_plastic) scheduler.add(systems::plasticity_system(w));
-    scheduler.add(systems::elastic_force_system(w));
+    if (fused) {
+      scheduler.add(systems::bond_pass_system(w));
+    } else {
+      if (w.any_plastic) scheduler.add(systems::plasticity_system(w));
+      scheduler.add(systems::elastic_force_system(w));
+    }
   }
   scheduler.add(systems::external_load_system(w));
-  if (w.contact.enabled) scheduler.add(systems::contact_system(w));
   if (!w.projectiles.bodies.empty()) scheduler.add(systems::projectile_contact_system(w));
   scheduler.add(systems::kick_end_system(w));
-  if (w.any_fracture) scheduler.add(systems::fracture_system(w));
-  if (w.any_fracture || w.any_plastic) scheduler.add(systems::damage_system(w));
+  if (!fused && w.any_fracture) scheduler.add(systems::fracture_system(w));
+  if (!fused && w.any_fracture) scheduler.add(systems::damage_system(w));
+  if (w.any_fracture) scheduler.add(systems::fracture_threshold_system(w));
   // Embedded mesh (§5.2): crack faces and vertex splitting when bonds can break; vertex motion when
   // anything uses the mesh surface (fracture, or surface/tet output requested).
   if (w.scene.solver == scene::Solver::peridynamics) {

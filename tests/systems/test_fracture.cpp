@@ -149,27 +149,34 @@ TEST_CASE("fracture conserves linear momentum (body torn apart by initial veloci
   CHECK((p1 - p0).norm() / scale < 1e-10);
 }
 
-TEST_CASE("fracture + plasticity + anisotropy: 1 and 2 threads give bit-identical results") {
-  auto make = [](int threads) {
-    auto sc = test::box_scene(Vec3(0.06, 0.03, 0.03), 0.01, kKappa, kMu);
-    sc.threads = threads;
-    sc.materials[0].critical_stretch = 0.02;
-    sc.materials[0].damage_alpha = 1.0;
-    sc.materials[0].yield_energy = 1e9;
-    sc.materials[0].plastic_cap_ratio = 0.05;
-    sc.materials[0].anisotropy = Vec3(1.5, 1.0, 1.0).asDiagonal();
-    sc.time.dt = 5e-5;
-    World w(sc);
-    auto v = w.velocities_mutable();
-    const auto x = w.reference_positions();
-    for (std::size_t i = 0; i < v.size(); ++i) v[i] = Vec3(x[i].x() > 0 ? 2.0 : -1.0, 10 * x[i].z(), 0.0);
-    return w;
-  };
-  World a = make(1), b = make(2);
-  REQUIRE(a.threads() == 1);
-  REQUIRE(b.threads() == 2);
-  a.step(300);
-  b.step(300);
+namespace {
+
+// A breaking, yielding (and optionally anisotropic) box torn apart by its initial velocities.
+World tearing_box(int threads, bool fused, bool anisotropic) {
+  auto sc = test::box_scene(Vec3(0.06, 0.03, 0.03), 0.01, kKappa, kMu);
+  sc.threads = threads;
+  sc.fuse_bond_systems = fused;
+  sc.materials[0].critical_stretch = 0.02;
+  sc.materials[0].damage_alpha = 1.0;
+  sc.materials[0].yield_energy = 1e9;
+  sc.materials[0].plastic_cap_ratio = 0.05;
+  if (anisotropic) sc.materials[0].anisotropy = Vec3(1.5, 1.0, 1.0).asDiagonal();
+  sc.time.dt = 5e-5;
+  World w(sc);
+  auto v = w.velocities_mutable();
+  const auto x = w.reference_positions();
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = Vec3(x[i].x() > 0 ? 2.0 : -1.0, 10 * x[i].z(), 0.0);
+  return w;
+}
+
+bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](const Vec3& p, const Vec3& q) {
+           return p.x() == q.x() && p.y() == q.y() && p.z() == q.z();
+         });
+}
+
+// Both runs must have broken and yielded bonds, and agree bit for bit in everything the step evolves.
+void check_identical(const World& a, const World& b) {
   const auto& sa = a.state();
   const auto& sb = b.state();
   std::size_t plastic = 0;
@@ -179,9 +186,40 @@ TEST_CASE("fracture + plasticity + anisotropy: 1 and 2 threads give bit-identica
   CHECK(plastic > 0);
   CHECK(sa.bonds.alive == sb.bonds.alive);
   CHECK(sa.bonds.plastic_extension == sb.bonds.plastic_extension);
-  CHECK(std::equal(sa.particles.position.begin(), sa.particles.position.end(), sb.particles.position.begin(),
-                   [](const Vec3& p, const Vec3& q) { return p.x() == q.x() && p.y() == q.y() && p.z() == q.z(); }));
+  CHECK(same_bits(sa.particles.position, sb.particles.position));
+  CHECK(same_bits(sa.particles.velocity, sb.particles.velocity));
   CHECK(sa.state.damage == sb.state.damage);
+  CHECK(sa.state.broken_bonds == sb.state.broken_bonds);
+}
+
+}  // namespace
+
+TEST_CASE("fracture + plasticity + anisotropy: 1 and 2 threads give bit-identical results") {
+  World a = tearing_box(1, true, true), b = tearing_box(2, true, true);
+  REQUIRE(a.threads() == 1);
+  REQUIRE(b.threads() == 2);
+  a.step(300);
+  b.step(300);
+  check_identical(a, b);
+}
+
+TEST_CASE("the fused bond pass gives the same bits as the separate plasticity, force, fracture, damage systems") {
+  for (const bool anisotropic : {false, true}) {
+    CAPTURE(anisotropic);
+    World fused = tearing_box(2, true, anisotropic), separate = tearing_box(2, false, anisotropic);
+    fused.step(300);
+    separate.step(300);
+    check_identical(fused, separate);
+    // Each particle keeps a mirror copy of the other side's plastic extension; it must never drift
+    // from the original, or the two ends of a bond would disagree on yield and breaking.
+    for (const World* w : {&fused, &separate}) {
+      const auto& bonds = w->state().bonds;
+      std::size_t mismatched = 0;
+      for (std::size_t k = 0; k < bonds.count(); ++k)
+        mismatched += bonds.plastic_extension_mirror[k] != bonds.plastic_extension[bonds.reverse[k]];
+      CHECK(mismatched == 0);
+    }
+  }
 }
 
 TEST_CASE("initial crack polygon removes exactly the bonds crossing it, damage starts at zero") {

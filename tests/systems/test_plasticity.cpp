@@ -38,9 +38,8 @@ BondState bond_state(const WorldState& w, const std::vector<Vec3>& y, std::size_
 }
 
 void plastic_update(WorldState& w, const std::vector<Vec3>& y) {
-  std::vector<double> theta(y.size()), coupling(y.size());
-  systems::compute_dilatation(w, y, theta, coupling);
-  systems::update_plastic_extension(w, y, theta);
+  systems::compute_dilatation(w, y, w.state.dilatation, w.state.dilatation_coupling);
+  systems::update_plastic_extension(w, y);
 }
 
 // Interior particle and its bond with the largest deviatoric extension under the stretch.

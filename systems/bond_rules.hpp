@@ -1,0 +1,120 @@
+// Per-bond rules shared by the bond systems (dilatation, plasticity, elastic_force, fracture) and by
+// their fused form (bond_pass.cpp). Each rule is one inline function, so the separate systems and the
+// fused pass execute the same IEEE operations and produce the same bits (the project builds with
+// -std=c++20, i.e. -ffp-contract=off: no FMA contraction that could differ between call sites).
+//
+// Symmetry: every rule is evaluated from the two ends of a bond, by particle i's loop for bond
+// k = i→j and by j's loop for its mirror m = j→i. The geometry (e, Λ, 1/|y_j − y_i|) is bit-symmetric
+// (y_i − y_j is the exact negation of y_j − y_i, and so is ξ), and the per-side rules take the side's
+// own constants as arguments, so "side j as seen from i" and "side j as seen from j" are the same
+// call with the same arguments. That is what lets each particle own and update its own bond slots in
+// place, with no atomics and no dependence on thread count.
+#pragma once
+#include <algorithm>
+#include <cmath>
+
+#include "components/math.hpp"
+#include "components/particles.hpp"
+
+namespace perifx::systems {
+
+// Eq 7 for one bond: extension e = |y_j − y_i| − |ξ| and Λ = n·ξ/|ξ| (the cosine between the deformed
+// and the reference bond). dy = y_j − y_i, dxi = ξ = x_j − x_i, r = |ξ|. One division serves both
+// 1/|y_j − y_i| and Λ (divisions and the square root bound the bond passes). Returns false for a
+// collapsed bond (coincident particles: no direction, so no force, no plastic flow, no break).
+struct BondGeometry {
+  double extension;       // e, m
+  double cosine;          // Λ
+  double inverse_length;  // 1/|y_j − y_i|, 1/m
+};
+inline bool bond_geometry(const Vec3& dy, const Vec3& dxi, double r, BondGeometry& g) {
+  const double len = std::sqrt(dy.squaredNorm());
+  if (!(len > 0.0)) return false;
+  const double inv_len_r = 1.0 / (len * r);
+  g.inverse_length = r * inv_len_r;
+  g.extension = len - r;
+  g.cosine = dy.dot(dxi) * inv_len_r;
+  return true;
+}
+
+// Weighted length of a bond side, ℓ_ij = δ_i/ω_ij = |G_i ξ| (Eq 5, 17): |ξ| for the isotropic weight.
+// The yield and break limits below scale with it.
+template <bool kAnisotropic>
+inline double weighted_length(double r, double horizon, double weight) {
+  if constexpr (kAnisotropic) return horizon / weight;
+  else return r;
+}
+
+// Plasticity, Eq 11–16 with notes.md's consistent return, for one side of a bond:
+//   A_dev = k (e^d − e^p),  k = ω b4,  e^d = e − βθΛ                          (Eq 12, trial)
+//   |A_dev| > A_c = √(2Ψ0):  e^p ← e^p + (A_dev − A_c sign A_dev)/k            (Eq 13–15)
+//   e^p ← clamp(e^p, −γ, γ),  γ = cap                                           (Eq 16)
+// Divided through by k: the bond yields when |e^d − e^p| exceeds the yield extension
+// ε_y = A_c/k = A_c/(b4 ω) = Y ℓ with Y = A_c/(b4 δ) per particle, and then returns to
+// e^p = e^d − ε_y sign(e^d − e^p) (the same point, with no division per bond). ε_y = ∞ (Ψ0 = ∞)
+// never yields; cap = 0 keeps e^p = 0 (plasticity off, Eq 16 as written).
+inline double plastic_return(double deviatoric_extension, double plastic_extension, double yield_extension,
+                             double cap) {
+  const double elastic_part = deviatoric_extension - plastic_extension;
+  // A select rather than a branch: near the yield surface the branch is unpredictable.
+  const double next = std::abs(elastic_part) > yield_extension
+                          ? deviatoric_extension - std::copysign(yield_extension, elastic_part)
+                          : plastic_extension;
+  return std::min(std::max(next, -cap), cap);
+}
+
+// Fracture, Eq 18–19 as notes.md reads them, for one side of a bond in tension (e > 0):
+//   (e − e^p)/(|ξ| ω) > (1 + αφ) s_c   ⇔   e − e^p > B |ξ|/ℓ,   B = (1 + αφ) s_c δ
+// (|ξ|/ℓ = 1 for the isotropic weight, so the test is (e − e^p)/δ > (1 + αφ) s_c). B is the
+// particle's break extension, refreshed once per step from its damage; B = ∞ never breaks.
+inline bool side_exceeds(double extension, double plastic_extension, double limit) {
+  return extension - plastic_extension > limit;
+}
+template <bool kAnisotropic>
+inline double break_limit(double break_extension, double r, double length) {
+  if constexpr (kAnisotropic) return break_extension * (r / length);
+  else return break_extension;
+}
+
+// Break extension of Eq 19 for a particle: (1 + α φ) s_c δ, ∞ for an unbreakable material.
+inline double break_extension(double critical_stretch, double damage_alpha, double damage, double horizon) {
+  return std::isfinite(critical_stretch) ? (1.0 + damage_alpha * damage) * critical_stretch * horizon : kInfinity;
+}
+
+// The per-particle numbers one side of a bond needs for plasticity and fracture.
+struct SideConstants {
+  double beta_theta;       // β θ (e^d = e − βθΛ, Eq 12), m
+  double yield_extension;  // Y (plastic_return), per unit weighted length
+  double plastic_cap;      // γ/|ξ| (Eq 16)
+  double horizon;          // δ, m
+  double break_extension;  // B (side_exceeds), m
+};
+inline SideConstants side_constants(const ParticleModel& md, const ParticleState& s, std::size_t i) {
+  return {md.beta[i] * s.dilatation[i], md.yield_extension[i], md.plastic_cap[i], md.horizon[i],
+          s.break_extension[i]};
+}
+
+// Plasticity of one side of bond k (this step's e, Λ; ω and e^p of that side): the new e^p.
+template <bool kAnisotropic>
+inline double side_plastic_extension(const BondGeometry& g, double r, double weight, double plastic_extension,
+                                     const SideConstants& c) {
+  const double length = weighted_length<kAnisotropic>(r, c.horizon, weight);
+  return plastic_return(g.extension - c.beta_theta * g.cosine, plastic_extension, c.yield_extension * length,
+                        c.plastic_cap * r);
+}
+
+// Fracture of one side of bond k with that side's (new) e^p.
+template <bool kAnisotropic>
+inline bool side_breaks(const BondGeometry& g, double r, double weight, double plastic_extension,
+                        const SideConstants& c) {
+  const double length = weighted_length<kAnisotropic>(r, c.horizon, weight);
+  return side_exceeds(g.extension, plastic_extension, break_limit<kAnisotropic>(c.break_extension, r, length));
+}
+
+// Eq 19's damage of a particle from its bond counts: φ = 1 − n/N, and broken = N − n.
+inline void store_damage(ParticleState& s, std::size_t i, std::uint32_t initial, std::uint32_t alive) {
+  s.damage[i] = initial ? 1.0 - double(alive) / double(initial) : 0.0;
+  s.broken_bonds[i] = initial - alive;
+}
+
+}  // namespace perifx::systems
