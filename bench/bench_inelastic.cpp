@@ -39,5 +39,49 @@ void BM_FullStepInelastic(benchmark::State& state) {
 }
 BENCHMARK(BM_FullStepInelastic)->Apply(sizes_and_threads);
 
+// The fused bond pass alone (plasticity both sides, force, fracture test, damage: bond_pass.cpp) on
+// the inelastic body's current positions, one pass over all directed bonds per iteration.
+void BM_BondPass(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(1));
+  World& world = inelastic_world(state.range(0), threads);
+  WorldState& w = world.state_mutable();
+  auto& a = arena(threads);
+  for (auto _ : state) {
+    a.execute([&] { systems::run_bond_pass(w, w.particles.position, w.state.internal_force); });
+    benchmark::DoNotOptimize(w.state.internal_force.data());
+    benchmark::ClobberMemory();
+  }
+  if (!all_finite(w.state.internal_force)) state.SkipWithError("non-finite internal force");
+  if (world.alive_bond_count() != world.bond_count()) state.SkipWithError("bonds broke: the timed work changed");
+  report(state, world, threads, static_cast<double>(world.bond_count()));
+}
+BENCHMARK(BM_BondPass)->Apply(sizes_and_threads);
+
+// Particle–particle contact alone (contact.cpp) on the intact inelastic body, step-equivalent rate
+// (the body's bonds per iteration), to compare with the bond kernels.
+//   BM_Contact:        a step whose pair list is still valid (the common case: an O(n) staleness
+//                      check, and an empty list for an intact body);
+//   BM_ContactRebuild: the list rebuilt every iteration, as in a step after bonds broke (grid, count
+//                      and fill passes: every particle searches its 27 cells).
+void contact_benchmark(benchmark::State& state, bool rebuild) {
+  const int threads = static_cast<int>(state.range(1));
+  World& world = inelastic_world(state.range(0), threads);
+  WorldState& w = world.state_mutable();
+  const SystemDecl contact = systems::contact_system(w);
+  auto& a = arena(threads);
+  for (auto _ : state) {
+    if (rebuild) w.contact.pairs.valid = false;
+    a.execute([&] { contact.run(); });
+    benchmark::DoNotOptimize(w.state.contact_force.data());
+    benchmark::ClobberMemory();
+  }
+  if (!all_finite(w.state.contact_force)) state.SkipWithError("non-finite contact force");
+  report(state, world, threads, static_cast<double>(world.bond_count()));
+}
+void BM_Contact(benchmark::State& state) { contact_benchmark(state, false); }
+void BM_ContactRebuild(benchmark::State& state) { contact_benchmark(state, true); }
+BENCHMARK(BM_Contact)->Apply(sizes_and_threads);
+BENCHMARK(BM_ContactRebuild)->Apply(sizes_and_threads);
+
 }  // namespace
 }  // namespace perifx::bench

@@ -14,13 +14,29 @@ namespace perifx {
 // `table` buckets (a power of two ≥ 2·particles) and a counting sort groups particles by bucket,
 // in increasing index inside each bucket. Every buffer is sized at setup; a step never allocates.
 struct ContactGrid {
-  double cell = 0.0;                                 // cell edge, m (= the largest contact distance)
+  double cell = 0.0;                                 // cell edge, m (= the largest contact distance + skin)
   std::uint32_t mask = 0;                            // table − 1
-  std::vector<std::array<std::int32_t, 3>> cell_of;  // per particle: its cell
+  std::vector<std::uint64_t> cell_of;                // per particle: its cell, 3 × 21-bit packed key
   std::vector<std::uint32_t> bucket;                 // per particle: hash of its cell
   std::vector<std::uint32_t> start;                  // table + 1: bucket b holds sorted[start[b], start[b+1])
   std::vector<std::uint32_t> cursor;                 // table: scatter cursor of the counting sort
   std::vector<std::uint32_t> sorted;                 // particle indices grouped by bucket
+};
+
+// Candidate pairs (Verlet list with a skin, as in molecular dynamics): for each particle i, the
+// particles j that were within largest d_c + skin of it and not joined by an alive bond when the list
+// was built. Every pair that can touch before the list is rebuilt is in it: the list is rebuilt when
+// some particle has moved more than skin/2 since the build, or a bond has broken. CSR, in grid-visit
+// order (deterministic). An intact body has an empty list and costs one O(n) check per step.
+struct ContactPairs {
+  double skin = 0.0;                       // m
+  std::vector<std::uint32_t> offsets;      // particles + 1
+  std::vector<std::uint32_t> neighbor;     // candidates of i: neighbor[offsets[i], offsets[i+1])
+  std::vector<std::uint32_t> count;        // particles: scratch for the build (candidates per particle)
+  std::vector<Vec3> built_position;        // positions at the last build, m
+  std::uint64_t broken_at_build = 0;       // Σ broken bonds at the last build
+  bool valid = false;                      // false until the first build
+  std::uint64_t builds = 0;                // rebuilds so far (diagnostics)
 };
 
 struct ContactState {
@@ -29,8 +45,10 @@ struct ContactState {
   double stiffness_factor = 0.05;// k = factor·min(m_i, m_j)/dt²
   double damping_ratio = 0.1;    // normal damping, fraction of critical for the pair spring
   double friction = 0.0;         // Coulomb coefficient
+  double largest_distance = 0.0; // the largest d_c of any pair, m
   std::vector<double> size;      // s_i = ∛V_i per particle, m
   ContactGrid grid;
+  ContactPairs pairs;
 };
 
 // A rigid sphere with mass, integrated by the same velocity Verlet as the particles.

@@ -49,6 +49,20 @@ struct ParticleModel {
   std::vector<double> damage_alpha;     // α (Eq 19, notes.md)
 };
 
+// What the fused bond pass reads of the far end j of a bond i→j, packed in one 64-byte line per
+// particle: one cache line per neighbour instead of nine scattered arrays. A copy of the arrays it
+// is made from (ParticleModel, ParticleState), refreshed by the bond pass itself at its start.
+struct alignas(64) BondEnd {
+  double coupling;         // P_j, Pa/m⁴ (ParticleState::dilatation_coupling)
+  double b4;               // 4b_j, Pa/m⁵
+  double volume;           // V_j, m³
+  double beta_theta;       // β_j θ_j, m
+  double yield_extension;  // Y_j (ParticleModel::yield_extension)
+  double plastic_cap;      // γ/|ξ| of j's material
+  double break_extension;  // (1 + α_j φ_j) s_c,j δ_j, m
+  double horizon;          // δ_j, m
+};
+
 // Per-particle results of the step's systems.
 struct ParticleState {
   std::vector<double> dilatation;           // θ_i (Eq 6), written by the dilatation system
@@ -59,6 +73,7 @@ struct ParticleState {
   std::vector<double> damage;               // φ_i = 1 − n_i/N_i (Eq 19), from the end of the last step
   std::vector<double> break_extension;      // (1 + α_i φ_i) s_c,i δ_i from that damage, m (∞: unbreakable)
   std::vector<std::uint32_t> broken_bonds;  // N_i − n_i, written with damage (damage system)
+  std::vector<BondEnd> bond_end;            // packed far-end view for the fused bond pass (bond_pass.cpp)
 };
 
 }  // namespace perifx

@@ -9,6 +9,8 @@
 // same order, so scenes with `model.fuse_bond_systems` true and false give the same bits (a test
 // checks it). Why fuse: the separate systems recompute |y_j − y_i| and Λ and stream the bond arrays
 // four times; fused, the step does it twice (here and in dilatation).
+// The far end's per-particle numbers are read from a packed copy (ParticleState::bond_end, one cache
+// line per particle) that the pass refreshes first.
 // Every write goes to particle i's own bond slots or to particle i: no atomics, independent of thread
 // count (bond_rules.hpp explains why both ends of a bond reach the same plastic and break decisions).
 // Reads:  position, dilatation, plastic_extension, bond_alive, fracture_threshold.
@@ -24,57 +26,109 @@
 namespace perifx::systems {
 namespace {
 
-template <bool kAnisotropic, bool kPlastic, bool kFracture>
-void bond_pass(WorldState& w, const std::vector<Vec3>& y, std::vector<Vec3>& force) {
-  Bonds& b = w.bonds;
-  const auto& x = w.particles.reference_position;
-  const auto& volume = w.particles.volume;
+// Refreshes the packed far-end copy (ParticleState::bond_end) from this step's dilatation and
+// break extensions: one short streaming pass, so the bond loop gathers one line per neighbour.
+void pack_bond_ends(WorldState& w) {
   const auto& md = w.model;
   auto& s = w.state;
-  const auto& coupling = s.dilatation_coupling;
+  const auto& volume = w.particles.volume;
   parallel_for_each(w.particles.count(), [&](std::size_t i) {
-    const Vec3 yi = y[i], xi = x[i];
-    const double p_i = coupling[i], b4_i = md.b4[i];
-    const SideConstants side_i = side_constants(md, s, i);
-    Vec3 f = Vec3::Zero();
-    std::uint32_t alive = 0;
-    for (std::uint32_t k = b.offsets[i], end = b.offsets[i + 1]; k < end; ++k) {
-      if (!b.alive[k]) continue;
-      const std::uint32_t j = b.neighbor[k];
-      const double r = b.reference_length[k];
-      const Vec3 dy = y[j] - yi;
+    const SideConstants c = side_constants(md, s, i);
+    s.bond_end[i] = BondEnd{s.dilatation_coupling[i], md.b4[i],           volume[i],         c.beta_theta,
+                            c.yield_extension,        c.plastic_cap,      c.break_extension, c.horizon};
+  }, 4096);
+}
+
+template <bool kAnisotropic, bool kPlastic, bool kFracture>
+void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>& force) {
+  pack_bond_ends(w);
+  Bonds& b = w.bonds;
+  // Raw pointers, captured by value and copied into the task's locals: a store through a uint8_t*
+  // (alive) may alias anything in memory (char aliasing), so pointers the compiler had to read from
+  // memory would be reloaded after every store. Positions as flat arrays of 3 doubles per particle.
+  const std::uint32_t* const offsets_p = b.offsets.data();
+  const std::uint32_t* const neighbor_p = b.neighbor.data();
+  const std::uint32_t* const reverse_p = b.reverse.data();
+  const double* const reference_length_p = b.reference_length.data();
+  const double* const weight_p = b.weight.data();
+  double* const plastic_p = b.plastic_extension.data();
+  double* const plastic_mirror_p = b.plastic_extension_mirror.data();
+  std::uint8_t* const alive_p = b.alive.data();
+  const double* const y_p = y_vec.data()->data();
+  const double* const x_p = w.particles.reference_position.data()->data();
+  const BondEnd* const ends_p = w.state.bond_end.data();
+  const std::uint32_t* const initial_count_p = b.initial_count.data();
+  double* const damage_p = w.state.damage.data();
+  std::uint32_t* const broken_p = w.state.broken_bonds.data();
+  double* const force_p = force.data()->data();
+  parallel_for_each(w.particles.count(), [=](std::size_t i) {
+    const std::uint32_t* const neighbor = neighbor_p;
+    const std::uint32_t* const reverse = reverse_p;
+    const double* const reference_length = reference_length_p;
+    const double* const weight = weight_p;
+    double* const plastic = plastic_p;
+    double* const plastic_mirror = plastic_mirror_p;
+    std::uint8_t* const alive_flag = alive_p;
+    const double* const y = y_p;
+    const double* const x = x_p;
+    const BondEnd* const ends = ends_p;
+    const double yix = y[3 * i], yiy = y[3 * i + 1], yiz = y[3 * i + 2];
+    const double xix = x[3 * i], xiy = x[3 * i + 1], xiz = x[3 * i + 2];
+    const BondEnd end_i = ends[i];
+    const SideConstants side_i = side_constants(end_i);
+    double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
+    std::uint64_t alive_lanes[kBondLanes] = {}, breaks_lanes[kBondLanes] = {};
+    auto lane = [=, &fx, &fy, &fz, &alive_lanes, &breaks_lanes](std::size_t k, int l, std::uint64_t was_alive) {
+      const std::size_t j = neighbor[k];
+      const double r = reference_length[k];
+      const double dyx = y[3 * j] - yix, dyy = y[3 * j + 1] - yiy, dyz = y[3 * j + 2] - yiz;
+      const double dxx = x[3 * j] - xix, dxy = x[3 * j + 1] - xiy, dxz = x[3 * j + 2] - xiz;
       BondGeometry g;
-      if (!bond_geometry(dy, x[j] - xi, r, g)) {  // collapsed: no force, no flow, no break
-        ++alive;
-        continue;
-      }
-      const double w_ij = b.weight[k];
-      const double w_ji = kAnisotropic ? b.weight[b.reverse[k]] : w_ij;
-      const SideConstants side_j = side_constants(md, s, j);
+      // A collapsed bond (coincident particles) has no direction: no force, no flow, no break.
+      const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (was_alive != 0);
+      const BondEnd& end_j = ends[j];
+      const SideConstants side_j = side_constants(end_j);
+      const double w_ij = weight[k];
+      const double w_ji = kAnisotropic ? weight[reverse[k]] : w_ij;
       double ep_ij = 0.0, ep_ji = 0.0;
       if constexpr (kPlastic) {  // plasticity.cpp
-        ep_ij = side_plastic_extension<kAnisotropic>(g, r, w_ij, b.plastic_extension[k], side_i);
-        ep_ji = side_plastic_extension<kAnisotropic>(g, r, w_ji, b.plastic_extension_mirror[k], side_j);
-        b.plastic_extension[k] = ep_ij;
-        b.plastic_extension_mirror[k] = ep_ji;
+        const double old_ij = plastic[k], old_ji = plastic_mirror[k];
+        ep_ij = side_plastic_extension<kAnisotropic>(g, r, w_ij, old_ij, side_i);
+        ep_ji = side_plastic_extension<kAnisotropic>(g, r, w_ji, old_ji, side_j);
+        ep_ij = active ? ep_ij : old_ij;
+        ep_ji = active ? ep_ji : old_ji;
+        plastic[k] = ep_ij;
+        plastic_mirror[k] = ep_ji;
       }
-      // elastic_force.cpp
-      const double e_ij = kPlastic ? g.extension - ep_ij : g.extension;
-      const double e_ji = kPlastic ? g.extension - ep_ji : g.extension;
-      const double a_ij = w_ij * (g.cosine * p_i + b4_i * e_ij);
-      const double a_ji = w_ji * (g.cosine * coupling[j] + md.b4[j] * e_ji);
-      f += (0.5 * (a_ij + a_ji) * g.inverse_length * volume[j]) * dy;
+      // elastic_force.cpp. Computed for every lane, then selected: a load inside the condition would
+      // be a masked gather.
+      const double density = paired_force_density<kPlastic>(g, w_ij, w_ji, ep_ij, ep_ji, end_i.coupling, end_i.b4,
+                                                            end_j.coupling, end_j.b4, end_j.volume);
+      const double c = active ? density : 0.0;
+      fx[l] += c * dyx;
+      fy[l] += c * dyy;
+      fz[l] += c * dyz;
+      std::uint64_t breaks = 0;
       if constexpr (kFracture) {  // fracture.cpp
-        if (g.extension > 0.0 && (side_breaks<kAnisotropic>(g, r, w_ij, ep_ij, side_i) ||
-                                  side_breaks<kAnisotropic>(g, r, w_ji, ep_ji, side_j))) {
-          b.alive[k] = 0;
-          continue;
-        }
+        breaks = static_cast<std::uint64_t>(active & (g.extension > 0.0) &
+                                            (side_breaks<kAnisotropic>(g, r, w_ij, ep_ij, side_i) |
+                                             side_breaks<kAnisotropic>(g, r, w_ji, ep_ji, side_j)));
       }
-      ++alive;  // damage.cpp
-    }
-    force[i] = volume[i] * f;
-    store_damage(s, i, b.initial_count[i], alive);
+      breaks_lanes[l] = breaks;
+      alive_lanes[l] += was_alive & ~breaks;  // damage.cpp (a collapsed bond stays alive)
+    };
+    auto finish = [&breaks_lanes, alive_flag](std::size_t k, int n) {
+      if constexpr (kFracture) {
+        for (int l = 0; l < n; ++l)
+          if (breaks_lanes[l]) alive_flag[k + static_cast<std::size_t>(l)] = 0;  // rare: a predictable branch
+      }
+    };
+    for_each_bond_lane(offsets_p[i], offsets_p[i + 1], alive_flag, lane, finish);
+    const double v_i = end_i.volume;
+    force_p[3 * i] = v_i * sum_lanes(fx);
+    force_p[3 * i + 1] = v_i * sum_lanes(fy);
+    force_p[3 * i + 2] = v_i * sum_lanes(fz);
+    store_damage(damage_p[i], broken_p[i], initial_count_p[i], static_cast<std::uint32_t>(sum_lanes(alive_lanes)));
   }, 256);
 }
 

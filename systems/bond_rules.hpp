@@ -11,7 +11,10 @@
 // place, with no atomics and no dependence on thread count.
 #pragma once
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include "components/math.hpp"
 #include "components/particles.hpp"
@@ -27,14 +30,32 @@ struct BondGeometry {
   double cosine;          // Λ
   double inverse_length;  // 1/|y_j − y_i|, 1/m
 };
-inline bool bond_geometry(const Vec3& dy, const Vec3& dxi, double r, BondGeometry& g) {
-  const double len = std::sqrt(dy.squaredNorm());
-  if (!(len > 0.0)) return false;
+// Component form, branch-free so that it vectorizes: for a collapsed bond the outputs are not finite
+// and the caller must mask them out with the returned flag.
+inline bool bond_geometry(double dyx, double dyy, double dyz, double dxx, double dxy, double dxz, double r,
+                          BondGeometry& g) {
+  const double len = std::sqrt(dyx * dyx + dyy * dyy + dyz * dyz);
   const double inv_len_r = 1.0 / (len * r);
   g.inverse_length = r * inv_len_r;
   g.extension = len - r;
-  g.cosine = dy.dot(dxi) * inv_len_r;
-  return true;
+  g.cosine = (dyx * dxx + dyy * dxy + dyz * dxz) * inv_len_r;
+  return len > 0.0;
+}
+inline bool bond_geometry(const Vec3& dy, const Vec3& dxi, double r, BondGeometry& g) {
+  return bond_geometry(dy.x(), dy.y(), dy.z(), dxi.x(), dxi.y(), dxi.z(), r, g);
+}
+
+// Paired force density of a bond, ½(A_ij + A_ji)/|y_j − y_i| · V_j (Eq 2–4, 8, 12 with the plastic
+// extensions; elastic_force.cpp): multiplied by y_j − y_i it is the bond's force on particle i per
+// unit V_i. A = ω (Λ P + b4 (e − e^p)) on each side.
+template <bool kPlastic>
+inline double paired_force_density(const BondGeometry& g, double w_ij, double w_ji, double ep_ij, double ep_ji,
+                                   double p_i, double b4_i, double p_j, double b4_j, double v_j) {
+  const double e_ij = kPlastic ? g.extension - ep_ij : g.extension;
+  const double e_ji = kPlastic ? g.extension - ep_ji : g.extension;
+  const double a_ij = w_ij * (g.cosine * p_i + b4_i * e_ij);
+  const double a_ji = w_ji * (g.cosine * p_j + b4_j * e_ji);
+  return 0.5 * (a_ij + a_ji) * g.inverse_length * v_j;
 }
 
 // Weighted length of a bond side, ℓ_ij = δ_i/ω_ij = |G_i ξ| (Eq 5, 17): |ξ| for the isotropic weight.
@@ -50,16 +71,17 @@ inline double weighted_length(double r, double horizon, double weight) {
 //   |A_dev| > A_c = √(2Ψ0):  e^p ← e^p + (A_dev − A_c sign A_dev)/k            (Eq 13–15)
 //   e^p ← clamp(e^p, −γ, γ),  γ = cap                                           (Eq 16)
 // Divided through by k: the bond yields when |e^d − e^p| exceeds the yield extension
-// ε_y = A_c/k = A_c/(b4 ω) = Y ℓ with Y = A_c/(b4 δ) per particle, and then returns to
-// e^p = e^d − ε_y sign(e^d − e^p) (the same point, with no division per bond). ε_y = ∞ (Ψ0 = ∞)
-// never yields; cap = 0 keeps e^p = 0 (plasticity off, Eq 16 as written).
+// ε_y = A_c/k = A_c/(b4 ω) = Y ℓ with Y = A_c/(b4 δ) per particle, and then returns onto the yield
+// surface, |e^d − e^p| = ε_y, by e^p ← e^p + (|e^d − e^p| − ε_y) sign(e^d − e^p) (no division per
+// bond). ε_y = ∞ (Ψ0 = ∞) never yields; cap = 0 keeps e^p = 0 (plasticity off, Eq 16 as written).
 inline double plastic_return(double deviatoric_extension, double plastic_extension, double yield_extension,
                              double cap) {
   const double elastic_part = deviatoric_extension - plastic_extension;
-  // A select rather than a branch: near the yield surface the branch is unpredictable.
-  const double next = std::abs(elastic_part) > yield_extension
-                          ? deviatoric_extension - std::copysign(yield_extension, elastic_part)
-                          : plastic_extension;
+  // Written with max instead of a condition so that it compiles to a select: near the yield surface
+  // a branch is taken at random, and the mispredictions dominated the bond pass. Inside the surface
+  // the excess is exactly 0 and e^p is unchanged bit for bit (unloading is elastic).
+  const double excess = std::max(std::abs(elastic_part) - yield_extension, 0.0);
+  const double next = plastic_extension + std::copysign(excess, elastic_part);
   return std::min(std::max(next, -cap), cap);
 }
 
@@ -93,6 +115,10 @@ inline SideConstants side_constants(const ParticleModel& md, const ParticleState
   return {md.beta[i] * s.dilatation[i], md.yield_extension[i], md.plastic_cap[i], md.horizon[i],
           s.break_extension[i]};
 }
+// The same numbers from the packed far-end copy (ParticleState::bond_end); bit-identical.
+inline SideConstants side_constants(const BondEnd& e) {
+  return {e.beta_theta, e.yield_extension, e.plastic_cap, e.horizon, e.break_extension};
+}
 
 // Plasticity of one side of bond k (this step's e, Λ; ω and e^p of that side): the new e^p.
 template <bool kAnisotropic>
@@ -111,10 +137,46 @@ inline bool side_breaks(const BondGeometry& g, double r, double weight, double p
   return side_exceeds(g.extension, plastic_extension, break_limit<kAnisotropic>(c.break_extension, r, length));
 }
 
+// Lane-strided visit of a family's bonds [begin, end): chunks of kBondLanes consecutive bonds, bond
+// begin + c·kBondLanes + l on lane l. The per-bond work of a chunk is independent across lanes, so
+// the compiler runs a chunk as one SIMD pass (gathers for the neighbour data); sums over the family
+// are kept per lane and added in lane order at the end (sum_lanes). That order is fixed by this code,
+// not by the compiler or the thread count, so results stay bit-reproducible; the tail chunk runs the
+// same lane function in scalar form.
+//   lane(k, l, alive_k):  the bond's work; alive_k is its alive flag (0 or 1) as a 64-bit integer:
+//                         byte-wide values in the SIMD loop would force 16+ lanes per vector.
+//   finish(k, n):         after the chunk of n bonds starting at k (scalar; e.g. writes the flags).
+inline constexpr int kBondLanes = 8;
+template <class Lane, class Finish>
+inline void for_each_bond_lane(std::size_t begin, std::size_t end, const std::uint8_t* alive, Lane lane,
+                               Finish finish) {
+  static_assert(std::endian::native == std::endian::little, "alive flags are unpacked from a little-endian word");
+  // std::size_t indices: with 32-bit ones the compiler must allow for wrap-around and cannot treat
+  // k + l as a plain address stream. `lane` is taken by value so its captures are locals.
+  std::size_t k = begin;
+  for (; k + kBondLanes <= end; k += kBondLanes) {
+    std::uint64_t word;
+    std::memcpy(&word, alive + k, sizeof word);
+#pragma omp simd
+    for (int l = 0; l < kBondLanes; ++l)
+      lane(k + static_cast<std::size_t>(l), l, (word >> (8 * l)) & 0xffu);
+    finish(k, kBondLanes);
+  }
+  const int tail = static_cast<int>(end - k);
+  for (int l = 0; l < tail; ++l) lane(k + static_cast<std::size_t>(l), l, std::uint64_t{alive[k + l]});
+  if (tail > 0) finish(k, tail);
+}
+template <class T>
+inline T sum_lanes(const T (&lanes)[kBondLanes]) {
+  T total = lanes[0];
+  for (int l = 1; l < kBondLanes; ++l) total += lanes[l];
+  return total;
+}
+
 // Eq 19's damage of a particle from its bond counts: φ = 1 − n/N, and broken = N − n.
-inline void store_damage(ParticleState& s, std::size_t i, std::uint32_t initial, std::uint32_t alive) {
-  s.damage[i] = initial ? 1.0 - double(alive) / double(initial) : 0.0;
-  s.broken_bonds[i] = initial - alive;
+inline void store_damage(double& damage, std::uint32_t& broken, std::uint32_t initial, std::uint32_t alive) {
+  damage = initial ? 1.0 - double(alive) / double(initial) : 0.0;
+  broken = initial - alive;
 }
 
 }  // namespace perifx::systems

@@ -16,15 +16,22 @@
 // step, whatever the material: it never forces a smaller time step. The price is that the contact
 // is softer for larger dt (penetration under an impact at speed v is ≈ v·dt/√stiffness_factor).
 //
-// Neighbour search: a hashed uniform grid with cell = the largest d_c, rebuilt every step by a
-// counting sort (stable: particles in a bucket stay in index order). Each particle gathers the
-// forces on itself from its neighbours (no scatter, no atomics), visiting the 27 cells in a fixed
-// order, so the result does not depend on the thread count. Every scalar of the pair term is
+// Neighbour search: a Verlet list with a skin (components/contact.hpp, ContactPairs). The list holds,
+// per particle, the unbonded particles within the largest d_c + skin; it is rebuilt only when some
+// particle has moved more than skin/2 since the last build or a bond has broken, so every pair that
+// can be closer than d_c is in it. The build uses a hashed uniform grid (cell = largest d_c + skin,
+// counting sort, stable: particles in a bucket stay in index order), visiting the 27 cells in a fixed
+// order, one pass to count and one to fill the CSR list. Each particle then gathers the forces on
+// itself from its list (no scatter, no atomics), so the result does not depend on the thread count. Every scalar of the pair term is
 // symmetric in (i, j) and every vector flips sign exactly with r and v_j − v_i, so the force j
 // computes on itself is bit-for-bit the negative of the one i computes: momentum is conserved.
-// "Bonded": binary search of j in i's sorted neighbour list, then the alive flag.
+// "Bonded": binary search of j in i's sorted neighbour list, then the alive flag. Bonded pairs are
+// left out of the list; bonds never heal, and a break triggers a rebuild.
 //
-// Reads: position, velocity, bond_alive.   Writes: contact_force.
+// Reads: position, velocity, bond_alive, damage (broken-bond counts, to notice breaks).
+// Writes: contact_force, and its own pair list.
+#include <oneapi/tbb/parallel_reduce.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -34,22 +41,31 @@
 namespace perifx::systems {
 namespace {
 
-using Cell = std::array<std::int32_t, 3>;
+constexpr double kSkinFraction = 0.3;     // skin = this × the largest contact distance
+constexpr std::int32_t kCellLimit = (1 << 20) - 2;  // cell coordinates fit 21 bits with their ±1 neighbours
+
+struct Cell {
+  std::int32_t x, y, z;
+};
 
 Cell cell_of(const Vec3& y, double inv_cell) {
-  Cell c;
-  for (int a = 0; a < 3; ++a) {
-    // Clamp: a particle flung far away must not overflow int32 (it then shares a far cell; the
-    // distance test still rejects every false neighbour).
-    const double q = std::clamp(std::floor(y[a] * inv_cell), -1.0e9, 1.0e9);
-    c[static_cast<std::size_t>(a)] = static_cast<std::int32_t>(q);
-  }
-  return c;
+  // Clamp: a particle flung far away must not overflow the key (it then shares a far cell; the
+  // distance test still rejects every false neighbour).
+  auto axis = [&](double v) {
+    return static_cast<std::int32_t>(std::clamp(std::floor(v * inv_cell), double(-kCellLimit), double(kCellLimit)));
+  };
+  return {axis(y.x()), axis(y.y()), axis(y.z())};
+}
+
+std::uint64_t cell_key(const Cell& c) {
+  constexpr std::uint64_t mask = (1u << 21) - 1, bias = 1u << 20;
+  return ((static_cast<std::uint64_t>(c.x + bias) & mask)) | ((static_cast<std::uint64_t>(c.y + bias) & mask) << 21) |
+         ((static_cast<std::uint64_t>(c.z + bias) & mask) << 42);
 }
 
 std::uint32_t hash_cell(const Cell& c, std::uint32_t mask) {
-  const auto x = static_cast<std::uint32_t>(c[0]), y = static_cast<std::uint32_t>(c[1]),
-             z = static_cast<std::uint32_t>(c[2]);
+  const auto x = static_cast<std::uint32_t>(c.x), y = static_cast<std::uint32_t>(c.y),
+             z = static_cast<std::uint32_t>(c.z);
   return ((x * 73856093u) ^ (y * 19349663u) ^ (z * 83492791u)) & mask;
 }
 
@@ -57,6 +73,95 @@ bool bonded(const Bonds& b, std::uint32_t i, std::uint32_t j) {
   const auto first = b.neighbor.begin() + b.offsets[i], last = b.neighbor.begin() + b.offsets[i + 1];
   const auto it = std::lower_bound(first, last, j);
   return it != last && *it == j && b.alive[static_cast<std::size_t>(it - b.neighbor.begin())];
+}
+
+// Calls visit(j) for every unbonded particle j ≠ i within the grid cell size of i, in a fixed order.
+template <class Visit>
+void for_each_candidate(const WorldState& w, std::uint32_t i, Visit&& visit) {
+  const auto& g = w.contact.grid;
+  const auto& y = w.particles.position;
+  const Vec3 yi = y[i];
+  const double reach2 = g.cell * g.cell;
+  const Cell ci = cell_of(yi, 1.0 / g.cell);
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const Cell cc = {ci.x + dx, ci.y + dy, ci.z + dz};
+        const std::uint64_t key = cell_key(cc);
+        const std::uint32_t bk = hash_cell(cc, g.mask);
+        for (std::uint32_t q = g.start[bk]; q < g.start[bk + 1]; ++q) {
+          const std::uint32_t j = g.sorted[q];
+          if (j == i || g.cell_of[j] != key) continue;  // other cells hashed to this bucket
+          if ((y[j] - yi).squaredNorm() >= reach2 || bonded(w.bonds, i, j)) continue;
+          visit(j);
+        }
+      }
+}
+
+// True when the pair list no longer covers every pair that can touch.
+bool pairs_stale(const WorldState& w) {
+  const auto& c = w.contact;
+  const auto& pr = c.pairs;
+  if (!pr.valid) return true;
+  const std::size_t n = w.particles.count();
+  const std::uint64_t broken = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, 4096), std::uint64_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::uint64_t acc) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) acc += w.state.broken_bonds[i];
+        return acc;
+      },
+      [](std::uint64_t a, std::uint64_t b) { return a + b; });
+  if (broken != pr.broken_at_build) return true;
+  // max is exact in any order: the decision is the same for every thread count.
+  const double moved2 = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
+      [&](const tbb::blocked_range<std::size_t>& r, double acc) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i)
+          acc = std::max(acc, (w.particles.position[i] - pr.built_position[i]).squaredNorm());
+        return acc;
+      },
+      [](double a, double b) { return std::max(a, b); });
+  const double half_skin = 0.5 * pr.skin;
+  return !(moved2 <= half_skin * half_skin);  // NaN positions rebuild (and stay harmless)
+}
+
+void rebuild_pairs(WorldState& w) {
+  auto& c = w.contact;
+  auto& g = c.grid;
+  auto& pr = c.pairs;
+  const auto& p = w.particles;
+  const std::size_t n = p.count();
+  const double inv_cell = 1.0 / g.cell;
+  // 1. Cells and buckets (parallel), 2. counting sort (serial, stable, O(n + table)).
+  parallel_for_each(n, [&](std::size_t i) {
+    const Cell cc = cell_of(p.position[i], inv_cell);
+    g.cell_of[i] = cell_key(cc);
+    g.bucket[i] = hash_cell(cc, g.mask);
+  }, 4096);
+  std::fill(g.start.begin(), g.start.end(), 0u);
+  for (std::size_t i = 0; i < n; ++i) ++g.start[g.bucket[i] + 1];
+  for (std::size_t k = 1; k < g.start.size(); ++k) g.start[k] += g.start[k - 1];
+  std::copy(g.start.begin(), g.start.end() - 1, g.cursor.begin());
+  for (std::size_t i = 0; i < n; ++i) g.sorted[g.cursor[g.bucket[i]]++] = static_cast<std::uint32_t>(i);
+  // 3. Count, prefix sum, fill: a CSR list in grid-visit order.
+  parallel_for_each(n, [&](std::size_t i) {
+    std::uint32_t count = 0;
+    for_each_candidate(w, static_cast<std::uint32_t>(i), [&](std::uint32_t) { ++count; });
+    pr.count[i] = count;
+  }, 256);
+  pr.offsets[0] = 0;
+  for (std::size_t i = 0; i < n; ++i) pr.offsets[i + 1] = pr.offsets[i] + pr.count[i];
+  pr.neighbor.resize(pr.offsets[n]);  // grows only when the list outgrows every earlier one
+  parallel_for_each(n, [&](std::size_t i) {
+    std::uint32_t q = pr.offsets[i];
+    for_each_candidate(w, static_cast<std::uint32_t>(i), [&](std::uint32_t j) { pr.neighbor[q++] = j; });
+  }, 256);
+  std::copy(p.position.begin(), p.position.end(), pr.built_position.begin());
+  std::uint64_t broken = 0;
+  for (std::size_t i = 0; i < n; ++i) broken += w.state.broken_bonds[i];
+  pr.broken_at_build = broken;
+  pr.valid = true;
+  ++pr.builds;
 }
 
 }  // namespace
@@ -78,8 +183,16 @@ void setup_contact(WorldState& w) {
     largest = std::max(largest, c.size[i]);
   }
   if (!c.enabled) return;
+  c.largest_distance = c.distance_factor * largest;
+  auto& pr = c.pairs;
+  pr.skin = kSkinFraction * c.largest_distance;
+  pr.offsets.assign(n + 1, 0);
+  pr.count.assign(n, 0);
+  pr.built_position.assign(n, Vec3::Zero());
+  pr.neighbor.reserve(2 * n);
+  pr.valid = false;
   auto& g = c.grid;
-  g.cell = c.distance_factor * largest;
+  g.cell = c.largest_distance + pr.skin;
   std::uint32_t table = 1024;
   while (table < 2 * n) table <<= 1;
   g.mask = table - 1;
@@ -91,69 +204,53 @@ void setup_contact(WorldState& w) {
 }
 
 SystemDecl contact_system(WorldState& w) {
-  return {"contact", {Component::position, Component::velocity, Component::bond_alive}, {Component::contact_force}, [&w] {
+  return {"contact",
+          {Component::position, Component::velocity, Component::bond_alive, Component::damage},
+          {Component::contact_force},
+          [&w] {
+            if (pairs_stale(w)) rebuild_pairs(w);
             auto& c = w.contact;
-            auto& g = c.grid;
+            const auto& pr = c.pairs;
             const auto& p = w.particles;
-            const auto& b = w.bonds;
-            const std::size_t n = p.count();
-            const double inv_cell = 1.0 / g.cell;
-            // 1. Cells and buckets (parallel), 2. counting sort (serial, stable, O(n + table)).
-            parallel_for_each(n, [&](std::size_t i) {
-              g.cell_of[i] = cell_of(p.position[i], inv_cell);
-              g.bucket[i] = hash_cell(g.cell_of[i], g.mask);
-            }, 4096);
-            std::fill(g.start.begin(), g.start.end(), 0u);
-            for (std::size_t i = 0; i < n; ++i) ++g.start[g.bucket[i] + 1];
-            for (std::size_t k = 1; k < g.start.size(); ++k) g.start[k] += g.start[k - 1];
-            std::copy(g.start.begin(), g.start.end() - 1, g.cursor.begin());
-            for (std::size_t i = 0; i < n; ++i) g.sorted[g.cursor[g.bucket[i]]++] = static_cast<std::uint32_t>(i);
-
-            // 3. Gather.
             const double inv_dt2 = 1.0 / (w.clock.dt * w.clock.dt);
             const double inv_dt = 1.0 / w.clock.dt;
-            const double max_dc2 = g.cell * g.cell;
-            parallel_for_each(n, [&](std::size_t ii) {
+            parallel_for_each(p.count(), [&](std::size_t ii) {
               const auto i = static_cast<std::uint32_t>(ii);
-              const Vec3 yi = p.position[i], vi = p.velocity[i];
-              const Cell ci = g.cell_of[i];
               Vec3 f = Vec3::Zero();
-              for (int dz = -1; dz <= 1; ++dz)
-                for (int dy = -1; dy <= 1; ++dy)
-                  for (int dx = -1; dx <= 1; ++dx) {
-                    const Cell cc = {ci[0] + dx, ci[1] + dy, ci[2] + dz};
-                    const std::uint32_t bk = hash_cell(cc, g.mask);
-                    for (std::uint32_t q = g.start[bk]; q < g.start[bk + 1]; ++q) {
-                      const std::uint32_t j = g.sorted[q];
-                      if (j == i || g.cell_of[j] != cc) continue;  // other cells hashed to this bucket
-                      const Vec3 r = p.position[j] - yi;
-                      const double d2 = r.squaredNorm();
-                      if (d2 >= max_dc2) continue;
-                      double dc = c.distance_factor * (0.5 * (c.size[i] + c.size[j]));
-                      if (p.body_id[i] == p.body_id[j])
-                        dc = std::min(dc, (p.reference_position[j] - p.reference_position[i]).norm());
-                      if (d2 >= dc * dc || bonded(b, i, j)) continue;
-                      const double d = std::sqrt(d2);
-                      if (!(d > 0.0)) continue;  // coincident: no direction (never happens in practice)
-                      const Vec3 nrm = r / d;
-                      const double mi = p.mass[i], mj = p.mass[j];
-                      const double m_pair = (mi * mj) / (mi + mj);
-                      const double k = c.stiffness_factor * std::min(mi, mj) * inv_dt2;
-                      const double damp = 2.0 * c.damping_ratio * std::sqrt(k * m_pair);
-                      const Vec3 vrel = p.velocity[j] - vi;
-                      const double vn = vrel.dot(nrm);
-                      const double fn = std::max(0.0, k * (dc - d) - damp * vn);
-                      f -= fn * nrm;
-                      if (c.friction > 0.0) {
-                        const Vec3 vt = vrel - vn * nrm;
-                        const double vt_len = vt.norm();
-                        if (vt_len > 0.0) {
-                          const double ft = std::min(c.friction * fn, 0.25 * m_pair * vt_len * inv_dt);
-                          f += (ft / vt_len) * vt;
-                        }
-                      }
-                    }
+              const std::uint32_t first = pr.offsets[i], last = pr.offsets[i + 1];
+              if (first == last) {
+                w.state.contact_force[i] = f;
+                return;
+              }
+              const Vec3 yi = p.position[i], vi = p.velocity[i];
+              for (std::uint32_t q = first; q < last; ++q) {
+                const std::uint32_t j = pr.neighbor[q];
+                const Vec3 r = p.position[j] - yi;
+                const double d2 = r.squaredNorm();
+                double dc = c.distance_factor * (0.5 * (c.size[i] + c.size[j]));
+                if (p.body_id[i] == p.body_id[j])
+                  dc = std::min(dc, (p.reference_position[j] - p.reference_position[i]).norm());
+                if (d2 >= dc * dc) continue;
+                const double d = std::sqrt(d2);
+                if (!(d > 0.0)) continue;  // coincident: no direction (never happens in practice)
+                const Vec3 nrm = r / d;
+                const double mi = p.mass[i], mj = p.mass[j];
+                const double m_pair = (mi * mj) / (mi + mj);
+                const double k = c.stiffness_factor * std::min(mi, mj) * inv_dt2;
+                const double damp = 2.0 * c.damping_ratio * std::sqrt(k * m_pair);
+                const Vec3 vrel = p.velocity[j] - vi;
+                const double vn = vrel.dot(nrm);
+                const double fn = std::max(0.0, k * (dc - d) - damp * vn);
+                f -= fn * nrm;
+                if (c.friction > 0.0) {
+                  const Vec3 vt = vrel - vn * nrm;
+                  const double vt_len = vt.norm();
+                  if (vt_len > 0.0) {
+                    const double ft = std::min(c.friction * fn, 0.25 * m_pair * vt_len * inv_dt);
+                    f += (ft / vt_len) * vt;
                   }
+                }
+              }
               w.state.contact_force[i] = f;
             }, 256);
           }};

@@ -24,7 +24,7 @@ void compute_damage(WorldState& w) {
   parallel_for_each(w.particles.count(), [&](std::size_t i) {
     std::uint32_t alive = 0;
     for (std::uint32_t k = b.offsets[i], end = b.offsets[i + 1]; k < end; ++k) alive += b.alive[k];
-    store_damage(s, i, b.initial_count[i], alive);
+    store_damage(s.damage[i], s.broken_bonds[i], b.initial_count[i], alive);
   }, 1024);
 }
 

@@ -61,6 +61,7 @@ void allocate_state(WorldState& w) {
   s.external_force.assign(n, Vec3::Zero());
   s.damage.assign(n, 0.0);
   s.break_extension.assign(n, kInfinity);
+  s.bond_end.assign(n, BondEnd{});
   s.contact_force.assign(n, Vec3::Zero());
   s.broken_bonds.assign(n, 0);
 }
@@ -213,8 +214,7 @@ void add_step_systems(WorldState& w, Scheduler& scheduler) {
   scheduler.add(systems::collider_system(w));
   // Contact reads the bonds as they were at the start of the step (before this step's breaks).
   if (w.contact.enabled) scheduler.add(systems::contact_system(w));
-  const bool inelastic = w.any_plastic || w.any_fracture;
-  const bool fused = inelastic && w.scene.fuse_bond_systems;
+  const bool fused = w.scene.fuse_bond_systems;
   if (w.scene.solver != scene::Solver::peridynamics) {
     scheduler.add(systems::fem_force_system(w));
   } else {
