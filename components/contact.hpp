@@ -11,8 +11,9 @@ namespace perifx {
 
 // Particle–particle contact settings resolved at setup, and the spatial grid rebuilt every step.
 // The grid is a hashed uniform grid: particle i lies in cell floor(y_i / cell); cells hash into
-// `table` buckets (a power of two ≥ 2·particles) and a counting sort groups particles by bucket,
-// in increasing index inside each bucket. Every buffer is sized at setup; a step never allocates.
+// `table` buckets (a power of two ≥ 2·particles) as bucket = (x + h(y, z)) mod table, so the three
+// cells x−1, x, x+1 of a row are three consecutive buckets, and a counting sort groups particles by
+// bucket, in increasing index inside each bucket. Every buffer is sized at setup; a step never allocates.
 struct ContactGrid {
   double cell = 0.0;                                 // cell edge, m (= the largest contact distance + skin)
   std::uint32_t mask = 0;                            // table − 1
@@ -21,6 +22,8 @@ struct ContactGrid {
   std::vector<std::uint32_t> start;                  // table + 1: bucket b holds sorted[start[b], start[b+1])
   std::vector<std::uint32_t> cursor;                 // table: scatter cursor of the counting sort
   std::vector<std::uint32_t> sorted;                 // particle indices grouped by bucket
+  std::vector<std::uint64_t> sorted_key;             // cell_of[sorted[q]]: the scan reads a stream
+  std::vector<Vec3> sorted_position;                 // position[sorted[q]] at the build
 };
 
 // Candidate pairs (Verlet list with a skin, as in molecular dynamics): for each particle i, the
@@ -33,7 +36,17 @@ struct ContactPairs {
   std::vector<std::uint32_t> offsets;      // particles + 1
   std::vector<std::uint32_t> neighbor;     // candidates of i: neighbor[offsets[i], offsets[i+1])
   std::vector<std::uint32_t> count;        // particles: scratch for the build (candidates per particle)
+  std::vector<std::uint32_t> scratch;      // particles × kScratchPerParticle: the build's first pass
+                                           // keeps up to that many candidates per particle here, so
+                                           // only particles with more need a second search
+  static constexpr std::uint32_t kScratchPerParticle = 32;
   std::vector<Vec3> built_position;        // positions at the last build, m
+  // Build scratch, one row of `particles` entries per worker thread slot: while thread t builds the
+  // list of particle i it marks i's alive bond partners j with bonded_stamp[t·n + j] = stamp, so
+  // "bonded?" is one load instead of a binary search. Stamps are unique per (build pass, particle).
+  std::vector<std::uint64_t> bonded_stamp;
+  std::size_t stamp_slots = 0;
+  std::uint64_t stamp_base = 0;            // advanced by (particles + 1) per build pass
   std::uint64_t broken_at_build = 0;       // Σ broken bonds at the last build
   bool valid = false;                      // false until the first build
   std::uint64_t builds = 0;                // rebuilds so far (diagnostics)

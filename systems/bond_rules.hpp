@@ -155,11 +155,11 @@ inline void for_each_bond_lane(std::size_t begin, std::size_t end, const std::ui
   // k + l as a plain address stream. `lane` is taken by value so its captures are locals.
   std::size_t k = begin;
   for (; k + kBondLanes <= end; k += kBondLanes) {
-    std::uint64_t word;
-    std::memcpy(&word, alive + k, sizeof word);
+    std::uint64_t words[(kBondLanes + 7) / 8] = {};
+    std::memcpy(words, alive + k, kBondLanes);
 #pragma omp simd
     for (int l = 0; l < kBondLanes; ++l)
-      lane(k + static_cast<std::size_t>(l), l, (word >> (8 * l)) & 0xffu);
+      lane(k + static_cast<std::size_t>(l), l, (words[l >> 3] >> (8 * (l & 7))) & 0xffu);
     finish(k, kBondLanes);
   }
   const int tail = static_cast<int>(end - k);

@@ -30,7 +30,9 @@
 //
 // Reads: position, velocity, bond_alive, damage (broken-bond counts, to notice breaks).
 // Writes: contact_force, and its own pair list.
+#include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_reduce.h>
+#include <oneapi/tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -63,39 +65,63 @@ std::uint64_t cell_key(const Cell& c) {
          ((static_cast<std::uint64_t>(c.z + bias) & mask) << 42);
 }
 
+// Bucket of a cell: x plus a scrambled hash of the row (y, z), so a row's cells x−1..x+1 fall in
+// consecutive buckets and one range of the sorted array holds all three.
+std::uint32_t row_hash(std::int32_t y, std::int32_t z) {
+  return (static_cast<std::uint32_t>(y) * 73856093u) ^ (static_cast<std::uint32_t>(z) * 19349663u);
+}
 std::uint32_t hash_cell(const Cell& c, std::uint32_t mask) {
-  const auto x = static_cast<std::uint32_t>(c.x), y = static_cast<std::uint32_t>(c.y),
-             z = static_cast<std::uint32_t>(c.z);
-  return ((x * 73856093u) ^ (y * 19349663u) ^ (z * 83492791u)) & mask;
+  return (static_cast<std::uint32_t>(c.x) + row_hash(c.y, c.z)) & mask;
 }
 
-bool bonded(const Bonds& b, std::uint32_t i, std::uint32_t j) {
-  const auto first = b.neighbor.begin() + b.offsets[i], last = b.neighbor.begin() + b.offsets[i + 1];
-  const auto it = std::lower_bound(first, last, j);
-  return it != last && *it == j && b.alive[static_cast<std::size_t>(it - b.neighbor.begin())];
-}
-
-// Calls visit(j) for every unbonded particle j ≠ i within the grid cell size of i, in a fixed order.
+// Calls visit(j) for every unbonded particle j ≠ i within the grid cell size of i, in a fixed order
+// (9 rows of 3 cells). `stamp` is this (pass, particle)'s unique mark and `marks` the calling
+// thread's row of ContactPairs::bonded_stamp.
 template <class Visit>
-void for_each_candidate(const WorldState& w, std::uint32_t i, Visit&& visit) {
+void for_each_candidate(const WorldState& w, std::uint32_t i, std::uint64_t stamp, std::uint64_t* marks,
+                        Visit&& visit) {
   const auto& g = w.contact.grid;
-  const auto& y = w.particles.position;
-  const Vec3 yi = y[i];
+  const auto& b = w.bonds;
+  for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k)
+    if (b.alive[k]) marks[b.neighbor[k]] = stamp;
+  const Vec3 yi = w.particles.position[i];
   const double reach2 = g.cell * g.cell;
   const Cell ci = cell_of(yi, 1.0 / g.cell);
+  constexpr std::uint64_t kXMask = (1u << 21) - 1;
+  const std::uint64_t xi_key = cell_key(ci) & kXMask;
+  auto scan = [&](std::uint32_t first, std::uint32_t last, std::uint64_t row_key) {
+    for (std::uint32_t q = first; q < last; ++q) {
+      const std::uint64_t key = g.sorted_key[q];
+      // Same row, and x within one cell (other rows hashed to these buckets are skipped).
+      if ((key & ~kXMask) != row_key) continue;
+      const std::uint64_t xk = key & kXMask;
+      if (xk + 1 < xi_key || xk > xi_key + 1) continue;
+      const std::uint32_t j = g.sorted[q];
+      if (j == i || (g.sorted_position[q] - yi).squaredNorm() >= reach2 || marks[j] == stamp) continue;
+      visit(j);
+    }
+  };
   for (int dz = -1; dz <= 1; ++dz)
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const Cell cc = {ci.x + dx, ci.y + dy, ci.z + dz};
-        const std::uint64_t key = cell_key(cc);
-        const std::uint32_t bk = hash_cell(cc, g.mask);
-        for (std::uint32_t q = g.start[bk]; q < g.start[bk + 1]; ++q) {
-          const std::uint32_t j = g.sorted[q];
-          if (j == i || g.cell_of[j] != key) continue;  // other cells hashed to this bucket
-          if ((y[j] - yi).squaredNorm() >= reach2 || bonded(w.bonds, i, j)) continue;
-          visit(j);
+    for (int dy = -1; dy <= 1; ++dy) {
+      const Cell left = {ci.x - 1, ci.y + dy, ci.z + dz};
+      const std::uint64_t row_key = cell_key(left) & ~kXMask;
+      const std::uint32_t b0 = hash_cell(left, g.mask);
+      if (b0 + 2 <= g.mask) {
+        scan(g.start[b0], g.start[b0 + 3], row_key);
+      } else {  // the row wraps around the end of the table
+        for (std::uint32_t t = 0; t < 3; ++t) {
+          const std::uint32_t bk = (b0 + t) & g.mask;
+          scan(g.start[bk], g.start[bk + 1], row_key);
         }
       }
+    }
+}
+
+// The calling worker's row of the bonded-partner marks.
+std::uint64_t* stamp_row(ContactPairs& pr, std::size_t n) {
+  const int slot = tbb::this_task_arena::current_thread_index();
+  const std::size_t row = slot >= 0 && static_cast<std::size_t>(slot) < pr.stamp_slots ? std::size_t(slot) : 0;
+  return pr.bonded_stamp.data() + row * n;
 }
 
 // True when the pair list no longer covers every pair that can touch.
@@ -143,10 +169,24 @@ void rebuild_pairs(WorldState& w) {
   for (std::size_t k = 1; k < g.start.size(); ++k) g.start[k] += g.start[k - 1];
   std::copy(g.start.begin(), g.start.end() - 1, g.cursor.begin());
   for (std::size_t i = 0; i < n; ++i) g.sorted[g.cursor[g.bucket[i]]++] = static_cast<std::uint32_t>(i);
-  // 3. Count, prefix sum, fill: a CSR list in grid-visit order.
+  parallel_for_each(n, [&](std::size_t q) {
+    g.sorted_key[q] = g.cell_of[g.sorted[q]];
+    g.sorted_position[q] = p.position[g.sorted[q]];
+  }, 4096);
+  // 3. Search, prefix sum, fill: a CSR list in grid-visit order. The search keeps each particle's
+  // first kScratchPerParticle candidates; the fill copies them, and searches again only for the rare
+  // particle with more. Stamps are fresh for every pass and particle, so a mark left by an earlier
+  // pass or build (a bond since broken) never matches.
+  constexpr std::uint32_t cap = ContactPairs::kScratchPerParticle;
+  const std::uint64_t search_base = pr.stamp_base, fill_base = search_base + n + 1;
+  pr.stamp_base = fill_base + n + 1;
   parallel_for_each(n, [&](std::size_t i) {
     std::uint32_t count = 0;
-    for_each_candidate(w, static_cast<std::uint32_t>(i), [&](std::uint32_t) { ++count; });
+    std::uint32_t* row = pr.scratch.data() + i * cap;
+    for_each_candidate(w, static_cast<std::uint32_t>(i), search_base + i + 1, stamp_row(pr, n), [&](std::uint32_t j) {
+      if (count < cap) row[count] = j;
+      ++count;
+    });
     pr.count[i] = count;
   }, 256);
   pr.offsets[0] = 0;
@@ -154,8 +194,13 @@ void rebuild_pairs(WorldState& w) {
   pr.neighbor.resize(pr.offsets[n]);  // grows only when the list outgrows every earlier one
   parallel_for_each(n, [&](std::size_t i) {
     std::uint32_t q = pr.offsets[i];
-    for_each_candidate(w, static_cast<std::uint32_t>(i), [&](std::uint32_t j) { pr.neighbor[q++] = j; });
-  }, 256);
+    if (pr.count[i] <= cap) {
+      std::copy_n(pr.scratch.data() + i * cap, pr.count[i], pr.neighbor.data() + q);
+      return;
+    }
+    for_each_candidate(w, static_cast<std::uint32_t>(i), fill_base + i + 1, stamp_row(pr, n),
+                       [&](std::uint32_t j) { pr.neighbor[q++] = j; });
+  }, 1024);
   std::copy(p.position.begin(), p.position.end(), pr.built_position.begin());
   std::uint64_t broken = 0;
   for (std::size_t i = 0; i < n; ++i) broken += w.state.broken_bonds[i];
@@ -188,8 +233,14 @@ void setup_contact(WorldState& w) {
   pr.skin = kSkinFraction * c.largest_distance;
   pr.offsets.assign(n + 1, 0);
   pr.count.assign(n, 0);
+  pr.scratch.assign(n * ContactPairs::kScratchPerParticle, 0);
   pr.built_position.assign(n, Vec3::Zero());
   pr.neighbor.reserve(2 * n);
+  // One row per worker slot of the arena the step runs in (scene threads, or the machine's).
+  pr.stamp_slots = static_cast<std::size_t>(
+      std::max(w.scene.threads > 0 ? w.scene.threads : 0, tbb::info::default_concurrency()));
+  pr.bonded_stamp.assign(pr.stamp_slots * n, 0);
+  pr.stamp_base = 0;
   pr.valid = false;
   auto& g = c.grid;
   g.cell = c.largest_distance + pr.skin;
@@ -199,6 +250,8 @@ void setup_contact(WorldState& w) {
   g.cell_of.resize(n);
   g.bucket.resize(n);
   g.sorted.resize(n);
+  g.sorted_key.resize(n);
+  g.sorted_position.resize(n);
   g.start.assign(table + 1, 0);
   g.cursor.assign(table, 0);
 }

@@ -1,13 +1,14 @@
 // Every system of a perifx step, and the kernels they wrap. One .cpp per system; each file's header
 // comment names the paper's equations it implements and the components it reads and writes.
 //
-// Per-step order (the scheduler derives the actual graph from the declared reads/writes):
-//   kick_begin → boundary_conditions → drift → colliders → (contact) → dilatation → (plasticity)
-//   → elastic_force;  external_loads (independent of the chain above)  → kick_end → (fracture → damage)
-//   → (fracture_threshold)
-// or, with plasticity or fracture and model.fuse_bond_systems (the default), dilatation → bond_pass
-// (plasticity + elastic_force + fracture + damage in one pass) → kick_end → fracture_threshold
+// Per-step order (the scheduler derives the actual graph from the declared reads/writes), with
+// model.fuse_bond_systems (the default):
+//   kick_begin → boundary_conditions → drift → colliders → (contact) → dilatation → bond_pass
+//   (plasticity + elastic_force + fracture + damage in one pass over the bonds);
+//   external_loads (independent of the chain above) → kick_end → (fracture_threshold)
 //   → (crack_faces → mesh_split) → mesh_vertices      (embedded mesh, §5.2)
+// and with it false, the separate systems in place of bond_pass: (plasticity) → elastic_force, and
+// after kick_end (fracture → damage). Both give the same bits.
 // i.e. velocity Verlet (kick–drift–kick), with constraints applied to the velocity before the drift.
 #pragma once
 #include <vector>

@@ -247,3 +247,48 @@ TEST_CASE("contact and projectiles give bit-identical results on 1 and 2 threads
   CHECK(moved > 0.1);  // the projectile did hit something
   CHECK(differ == 0);
 }
+
+TEST_CASE("the contact pair list holds every unbonded pair within the contact distance while bodies move and break") {
+  // Two boxes collide fast enough to break bonds; the list (a Verlet list with a skin, rebuilt on
+  // motion or breaks) must contain every pair a brute-force search finds closer than the largest
+  // contact distance and not joined by an alive bond, whenever the contact system runs.
+  auto sc = test::box_scene(Vec3(0.06, 0.06, 0.06), 0.01, kKappa, kMu, kRho);
+  sc.materials[0].critical_stretch = 0.01;
+  sc.bodies[0].transform.translation = Vec3(-0.031, 0.0, 0.0);
+  sc.bodies[0].velocity = Vec3(6.0, 0.3, 0.0);
+  sc.bodies.push_back(box_body("b", Vec3(0.04, 0.04, 0.04), 0.01, Vec3(0.021, 0.012, 0.005), Vec3(-6.0, 0.0, 0.5)));
+  stable_dt(sc, 0.5);
+  World world(sc);
+  WorldState& w = world.state_mutable();
+  REQUIRE(w.contact.enabled);
+  const SystemDecl contact = systems::contact_system(w);
+  const std::size_t n = w.particles.count();
+  std::size_t checks = 0, missing = 0, close_pairs = 0;
+  const int steps = 400;
+  for (int s = 0; s < steps; ++s) {
+    world.step();
+    if (s % 20 != 19) continue;
+    contact.run();  // what the next step's contact system sees
+    const auto& pr = w.contact.pairs;
+    const double reach2 = w.contact.largest_distance * w.contact.largest_distance;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      std::vector<std::uint32_t> listed(pr.neighbor.begin() + pr.offsets[i], pr.neighbor.begin() + pr.offsets[i + 1]);
+      std::sort(listed.begin(), listed.end());
+      for (std::uint32_t j = 0; j < n; ++j) {
+        if (j == i || (w.particles.position[j] - w.particles.position[i]).squaredNorm() >= reach2) continue;
+        const auto first = w.bonds.neighbor.begin() + w.bonds.offsets[i], last = w.bonds.neighbor.begin() + w.bonds.offsets[i + 1];
+        const auto it = std::lower_bound(first, last, j);
+        if (it != last && *it == j && w.bonds.alive[static_cast<std::size_t>(it - w.bonds.neighbor.begin())]) continue;
+        ++close_pairs;
+        missing += !std::binary_search(listed.begin(), listed.end(), j);
+      }
+    }
+    ++checks;
+  }
+  MESSAGE(checks << " checks, " << close_pairs << " unbonded close pairs, " << missing << " missing; "
+                 << w.contact.pairs.builds << " list builds in " << steps << " steps; broken bonds "
+                 << world.bond_count() - world.alive_bond_count());
+  CHECK(world.bond_count() > world.alive_bond_count());  // bonds broke, so the list had to follow
+  CHECK(close_pairs > 0);
+  CHECK(missing == 0);
+}
