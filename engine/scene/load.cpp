@@ -237,7 +237,12 @@ class Converter {
       } else if (a.contains("axis")) {
         const Vec3 axis = vec(a["axis"]).normalized();
         const Mat3 along = axis * axis.transpose();
-        out.anisotropy = num(a["ratio_along"]) * along + num(a["ratio_across"]) * (Mat3::Identity() - along);
+        const double ratio_along = num(a["ratio_along"]), ratio_across = num(a["ratio_across"]);
+        // Equal ratios are exactly ratio·I (the sum below can miss I by an ulp); ratios 1 and 1 then
+        // give G = I, i.e. the isotropic run bit for bit.
+        out.anisotropy = ratio_along == ratio_across
+                             ? Mat3(ratio_along * Mat3::Identity())
+                             : Mat3(ratio_along * along + ratio_across * (Mat3::Identity() - along));
       }
     }
     return out;
