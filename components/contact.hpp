@@ -29,8 +29,10 @@ struct ContactGrid {
 // Candidate pairs (Verlet list with a skin, as in molecular dynamics): for each particle i, the
 // particles j that were within largest d_c + skin of it and not joined by an alive bond when the list
 // was built. Every pair that can touch before the list is rebuilt is in it: the list is rebuilt when
-// some particle has moved more than skin/2 since the build, or a bond has broken. CSR, in grid-visit
-// order (deterministic). An intact body has an empty list and costs one O(n) check per step.
+// some particle has moved more than skin/2 since the build; when bonds break without such motion,
+// only the pairs of the broken bonds are added (they are the only pairs that stopped being bonded).
+// CSR, in grid-visit order then order of breaking (deterministic). An intact body has an empty list
+// and costs one O(n) check per step.
 struct ContactPairs {
   double skin = 0.0;                       // m
   std::vector<std::uint32_t> offsets;      // particles + 1
@@ -47,7 +49,11 @@ struct ContactPairs {
   std::vector<std::uint64_t> bonded_stamp;
   std::size_t stamp_slots = 0;
   std::uint64_t stamp_base = 0;            // advanced by (particles + 1) per build pass
-  std::uint64_t broken_at_build = 0;       // Σ broken bonds at the last build
+  std::uint64_t broken_at_build = 0;       // Σ broken bonds at the last build or addition
+  std::vector<std::uint8_t> alive_at_build;  // bonds.alive as of then (per directed bond): the bonds
+                                             // that broke since are the list's only new candidates
+  std::vector<std::uint32_t> offsets_next, neighbor_next;  // double buffers for adding pairs
+  std::uint64_t additions = 0;             // incremental updates after breaks (diagnostics)
   bool valid = false;                      // false until the first build
   std::uint64_t builds = 0;                // rebuilds so far (diagnostics)
 };

@@ -17,16 +17,16 @@
 // is softer for larger dt (penetration under an impact at speed v is ≈ v·dt/√stiffness_factor).
 //
 // Neighbour search: a Verlet list with a skin (components/contact.hpp, ContactPairs). The list holds,
-// per particle, the unbonded particles within the largest d_c + skin; it is rebuilt only when some
-// particle has moved more than skin/2 since the last build or a bond has broken, so every pair that
-// can be closer than d_c is in it. The build uses a hashed uniform grid (cell = largest d_c + skin,
-// counting sort, stable: particles in a bucket stay in index order), visiting the 27 cells in a fixed
-// order, one pass to count and one to fill the CSR list. Each particle then gathers the forces on
-// itself from its list (no scatter, no atomics), so the result does not depend on the thread count. Every scalar of the pair term is
-// symmetric in (i, j) and every vector flips sign exactly with r and v_j − v_i, so the force j
-// computes on itself is bit-for-bit the negative of the one i computes: momentum is conserved.
-// "Bonded": binary search of j in i's sorted neighbour list, then the alive flag. Bonded pairs are
-// left out of the list; bonds never heal, and a break triggers a rebuild.
+// per particle, the unbonded particles within the largest d_c + skin. It is rebuilt only when some
+// particle has moved more than skin/2 since the last build, so every pair that can come closer than
+// d_c is in it; a bond that breaks adds its pair (add_broken_pairs) without a rebuild. The build uses a
+// hashed uniform grid (cell = largest d_c + skin, counting sort, stable: particles in a bucket stay in
+// index order) and visits 9 rows of 3 cells in a fixed order. Each particle then gathers the forces on
+// itself from its list (no scatter, no atomics), so the result does not depend on the thread count.
+// Every scalar of the pair term is symmetric in (i, j) and every vector flips sign exactly with r and
+// v_j − v_i, so the force j computes on itself is bit-for-bit the negative of the one i computes:
+// momentum is conserved. "Bonded": per-thread stamps of i's alive partners. Bonded pairs are left out
+// of the list; bonds never heal.
 //
 // Reads: position, velocity, bond_alive, damage (broken-bond counts, to notice breaks).
 // Writes: contact_force, and its own pair list.
@@ -124,20 +124,20 @@ std::uint64_t* stamp_row(ContactPairs& pr, std::size_t n) {
   return pr.bonded_stamp.data() + row * n;
 }
 
-// True when the pair list no longer covers every pair that can touch.
-bool pairs_stale(const WorldState& w) {
-  const auto& c = w.contact;
-  const auto& pr = c.pairs;
-  if (!pr.valid) return true;
+// What the pair list needs before this step's forces: nothing, the pairs of bonds broken since the
+// last update, or a full rebuild (first step, or some particle moved more than skin/2 since the build).
+enum class PairUpdate { none, add_broken, rebuild };
+PairUpdate pair_update_needed(const WorldState& w, std::uint64_t& broken_now) {
+  const auto& pr = w.contact.pairs;
   const std::size_t n = w.particles.count();
-  const std::uint64_t broken = tbb::parallel_reduce(
+  broken_now = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n, 4096), std::uint64_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::uint64_t acc) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) acc += w.state.broken_bonds[i];
         return acc;
       },
       [](std::uint64_t a, std::uint64_t b) { return a + b; });
-  if (broken != pr.broken_at_build) return true;
+  if (!pr.valid) return PairUpdate::rebuild;
   // max is exact in any order: the decision is the same for every thread count.
   const double moved2 = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
@@ -148,10 +148,45 @@ bool pairs_stale(const WorldState& w) {
       },
       [](double a, double b) { return std::max(a, b); });
   const double half_skin = 0.5 * pr.skin;
-  return !(moved2 <= half_skin * half_skin);  // NaN positions rebuild (and stay harmless)
+  if (!(moved2 <= half_skin * half_skin)) return PairUpdate::rebuild;  // NaN positions rebuild too
+  return broken_now != pr.broken_at_build ? PairUpdate::add_broken : PairUpdate::none;
 }
 
-void rebuild_pairs(WorldState& w) {
+// Adds to the list the pairs of bonds that broke since the last update and were within reach at the
+// build positions: exactly what a rebuild at the build positions would add, so the list stays
+// complete. Both ends of a bond see the same test (bit-symmetric distance), so pairs stay symmetric.
+void add_broken_pairs(WorldState& w, std::uint64_t broken_now) {
+  auto& pr = w.contact.pairs;
+  const auto& b = w.bonds;
+  const std::size_t n = w.particles.count();
+  const double reach2 = w.contact.grid.cell * w.contact.grid.cell;
+  auto newly_broken_in_reach = [&](std::size_t i, std::uint32_t k) {
+    return pr.alive_at_build[k] && !b.alive[k] &&
+           (pr.built_position[b.neighbor[k]] - pr.built_position[i]).squaredNorm() < reach2;
+  };
+  parallel_for_each(n, [&](std::size_t i) {
+    std::uint32_t count = pr.offsets[i + 1] - pr.offsets[i];
+    for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) count += newly_broken_in_reach(i, k);
+    pr.count[i] = count;
+  }, 1024);
+  pr.offsets_next[0] = 0;
+  for (std::size_t i = 0; i < n; ++i) pr.offsets_next[i + 1] = pr.offsets_next[i] + pr.count[i];
+  pr.neighbor_next.resize(pr.offsets_next[n]);
+  parallel_for_each(n, [&](std::size_t i) {
+    std::uint32_t q = pr.offsets_next[i];
+    for (std::uint32_t p = pr.offsets[i]; p < pr.offsets[i + 1]; ++p) pr.neighbor_next[q++] = pr.neighbor[p];
+    for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
+      if (newly_broken_in_reach(i, k)) pr.neighbor_next[q++] = b.neighbor[k];
+      pr.alive_at_build[k] = b.alive[k];  // particle i's own bond slots: no race
+    }
+  }, 1024);
+  std::swap(pr.offsets, pr.offsets_next);
+  std::swap(pr.neighbor, pr.neighbor_next);
+  pr.broken_at_build = broken_now;
+  ++pr.additions;
+}
+
+void rebuild_pairs(WorldState& w, std::uint64_t broken_now) {
   auto& c = w.contact;
   auto& g = c.grid;
   auto& pr = c.pairs;
@@ -202,9 +237,8 @@ void rebuild_pairs(WorldState& w) {
                        [&](std::uint32_t j) { pr.neighbor[q++] = j; });
   }, 1024);
   std::copy(p.position.begin(), p.position.end(), pr.built_position.begin());
-  std::uint64_t broken = 0;
-  for (std::size_t i = 0; i < n; ++i) broken += w.state.broken_bonds[i];
-  pr.broken_at_build = broken;
+  std::copy(w.bonds.alive.begin(), w.bonds.alive.end(), pr.alive_at_build.begin());
+  pr.broken_at_build = broken_now;
   pr.valid = true;
   ++pr.builds;
 }
@@ -236,6 +270,9 @@ void setup_contact(WorldState& w) {
   pr.scratch.assign(n * ContactPairs::kScratchPerParticle, 0);
   pr.built_position.assign(n, Vec3::Zero());
   pr.neighbor.reserve(2 * n);
+  pr.neighbor_next.reserve(2 * n);
+  pr.offsets_next.assign(n + 1, 0);
+  pr.alive_at_build.assign(w.bonds.alive.size(), 1);
   // One row per worker slot of the arena the step runs in (scene threads, or the machine's).
   pr.stamp_slots = static_cast<std::size_t>(
       std::max(w.scene.threads > 0 ? w.scene.threads : 0, tbb::info::default_concurrency()));
@@ -261,7 +298,12 @@ SystemDecl contact_system(WorldState& w) {
           {Component::position, Component::velocity, Component::bond_alive, Component::damage},
           {Component::contact_force},
           [&w] {
-            if (pairs_stale(w)) rebuild_pairs(w);
+            std::uint64_t broken_now = 0;
+            switch (pair_update_needed(w, broken_now)) {
+              case PairUpdate::rebuild: rebuild_pairs(w, broken_now); break;
+              case PairUpdate::add_broken: add_broken_pairs(w, broken_now); break;
+              case PairUpdate::none: break;
+            }
             auto& c = w.contact;
             const auto& pr = c.pairs;
             const auto& p = w.particles;

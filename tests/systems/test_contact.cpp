@@ -286,7 +286,8 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
     ++checks;
   }
   MESSAGE(checks << " checks, " << close_pairs << " unbonded close pairs, " << missing << " missing; "
-                 << w.contact.pairs.builds << " list builds in " << steps << " steps; broken bonds "
+                 << w.contact.pairs.builds << " list builds and " << w.contact.pairs.additions
+                 << " additions of broken pairs in " << steps << " steps; broken bonds "
                  << world.bond_count() - world.alive_bond_count());
   CHECK(world.bond_count() > world.alive_bond_count());  // bonds broke, so the list had to follow
   CHECK(close_pairs > 0);
