@@ -159,6 +159,8 @@ RunSummary run_world(World& world, const RunOptions& options) {
   summary.output_seconds = output_wall;
   summary.bond_updates_per_second = step_wall > 0 ? double(bonds) * double(summary.steps) / step_wall : 0.0;
   summary.threads = world.threads();
+  summary.contact_list_builds = world.state().contact.pairs.builds;
+  summary.contact_list_additions = world.state().contact.pairs.additions;
 
   std::ostringstream js;
   js.precision(17);
@@ -169,7 +171,9 @@ RunSummary run_world(World& world, const RunOptions& options) {
      << ",\n  \"dt\": " << world.dt() << ",\n  \"simulated_seconds\": " << summary.simulated_seconds
      << ",\n  \"threads\": " << summary.threads << ",\n  \"step_wall_seconds\": " << summary.wall_seconds
      << ",\n  \"output_wall_seconds\": " << summary.output_seconds
-     << ",\n  \"bond_updates_per_second\": " << summary.bond_updates_per_second << "\n}\n";
+     << ",\n  \"bond_updates_per_second\": " << summary.bond_updates_per_second
+     << ",\n  \"contact_list_builds\": " << summary.contact_list_builds
+     << ",\n  \"contact_list_additions\": " << summary.contact_list_additions << "\n}\n";
   // Timings differ run to run; keep them out of the frame files so those stay byte-identical.
   const std::string text = js.str();
   io::write_atomic(summary.output_directory / "summary.json", [&](std::ostream& out) { out << text; });

@@ -33,6 +33,8 @@ struct RunSummary {
   double output_seconds = 0.0;
   double bond_updates_per_second = 0.0;  // directed bonds × steps / stepping wall time
   int threads = 0;
+  std::uint64_t contact_list_builds = 0;     // particle-contact pair list: full rebuilds (motion)
+  std::uint64_t contact_list_additions = 0;  // and incremental additions of broken bonds' pairs
   std::filesystem::path output_directory;
 };
 

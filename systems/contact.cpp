@@ -18,8 +18,8 @@
 //
 // Neighbour search: a Verlet list with a skin (components/contact.hpp, ContactPairs). The list holds,
 // per particle, the unbonded particles within the largest d_c + skin. It is rebuilt only when some
-// particle has moved more than skin/2 since the last build, so every pair that can come closer than
-// d_c is in it; a bond that breaks adds its pair (add_broken_pairs) without a rebuild. The build uses a
+// particle has moved more than skin/2 since the last build, relative to the mean motion (a common
+// translation changes no distance), so every pair that can come closer than d_c is in it; a bond that breaks adds its pair (add_broken_pairs) without a rebuild. The build uses a
 // hashed uniform grid (cell = largest d_c + skin, counting sort, stable: particles in a bucket stay in
 // index order) and visits 9 rows of 3 cells in a fixed order. Each particle then gathers the forces on
 // itself from its list (no scatter, no atomics), so the result does not depend on the thread count.
@@ -138,12 +138,26 @@ PairUpdate pair_update_needed(const WorldState& w, std::uint64_t& broken_now) {
       },
       [](std::uint64_t a, std::uint64_t b) { return a + b; });
   if (!pr.valid) return PairUpdate::rebuild;
-  // max is exact in any order: the decision is the same for every thread count.
+  // A pair's separation changes by (Δy_j − T) − (Δy_i − T) for any vector T, so the list stays
+  // complete while every |Δy_i − T| ≤ skin/2. T = the mean displacement since the build, so a body
+  // that translates as a whole (falling, thrown) does not force rebuilds. The mean is a fixed-block
+  // sum and the max is exact in any order: the decision is the same for every thread count.
+  const auto& y = w.particles.position;
+  // parallel_deterministic_reduce splits and joins the same way for any thread count (and, unlike
+  // deterministic_sum, allocates nothing).
+  const Vec3 shift = tbb::parallel_deterministic_reduce(
+                         tbb::blocked_range<std::size_t>(0, n, 4096), Vec3(Vec3::Zero()),
+                         [&](const tbb::blocked_range<std::size_t>& r, Vec3 acc) {
+                           for (std::size_t i = r.begin(); i != r.end(); ++i) acc += y[i] - pr.built_position[i];
+                           return acc;
+                         },
+                         [](const Vec3& a, const Vec3& b) { return Vec3(a + b); }) /
+                     double(std::max<std::size_t>(n, 1));
   const double moved2 = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
       [&](const tbb::blocked_range<std::size_t>& r, double acc) {
         for (std::size_t i = r.begin(); i != r.end(); ++i)
-          acc = std::max(acc, (w.particles.position[i] - pr.built_position[i]).squaredNorm());
+          acc = std::max(acc, (y[i] - pr.built_position[i] - shift).squaredNorm());
         return acc;
       },
       [](double a, double b) { return std::max(a, b); });
