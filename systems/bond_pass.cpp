@@ -15,8 +15,8 @@
 // count (bond_rules.hpp explains why both ends of a bond reach the same plastic and break decisions).
 // Reads:  position, dilatation, plastic_extension, bond_alive, fracture_threshold.
 // Writes: internal_force, plastic_extension, bond_alive, damage.
-// Scheduled instead of plasticity → elastic_force → … → fracture → damage when the scene has
-// plasticity or fracture and model.fuse_bond_systems is true (the default). It runs before kick_end,
+// Scheduled instead of (plasticity) → elastic_force → … → (fracture → damage) when
+// model.fuse_bond_systems is true (the default), elastic scenes included. It runs before kick_end,
 // where elastic_force runs; fracture used to run after kick_end, but nothing in between moves the
 // particles or reads the bonds, so the break decisions are the same.
 #include "bond_rules.hpp"

@@ -1,7 +1,7 @@
 // Per-bond rules shared by the bond systems (dilatation, plasticity, elastic_force, fracture) and by
 // their fused form (bond_pass.cpp). Each rule is one inline function, so the separate systems and the
-// fused pass execute the same IEEE operations and produce the same bits (the project builds with
-// -std=c++20, i.e. -ffp-contract=off: no FMA contraction that could differ between call sites).
+// fused pass execute the same IEEE operations and produce the same bits (CMakeLists.txt passes
+// -ffp-contract=off: no FMA contraction that could differ between call sites).
 //
 // Symmetry: every rule is evaluated from the two ends of a bond, by particle i's loop for bond
 // k = i→j and by j's loop for its mirror m = j→i. The geometry (e, Λ, 1/|y_j − y_i|) is bit-symmetric
@@ -45,16 +45,23 @@ inline bool bond_geometry(const Vec3& dy, const Vec3& dxi, double r, BondGeometr
   return bond_geometry(dy.x(), dy.y(), dy.z(), dxi.x(), dxi.y(), dxi.z(), r, g);
 }
 
+// Scalar force state of one side of a bond, A = ω (Λ P + b4 (e − e^p)) (Eq 4 + Eq 12; Eq 8 with
+// e^p = 0), with P = (a4 − b4 β) θ of that side's particle.
+template <bool kPlastic>
+inline double side_force_state(const BondGeometry& g, double weight, double plastic_extension, double p,
+                               double b4) {
+  const double e = kPlastic ? g.extension - plastic_extension : g.extension;
+  return weight * (g.cosine * p + b4 * e);
+}
+
 // Paired force density of a bond, ½(A_ij + A_ji)/|y_j − y_i| · V_j (Eq 2–4, 8, 12 with the plastic
 // extensions; elastic_force.cpp): multiplied by y_j − y_i it is the bond's force on particle i per
-// unit V_i. A = ω (Λ P + b4 (e − e^p)) on each side.
+// unit V_i.
 template <bool kPlastic>
 inline double paired_force_density(const BondGeometry& g, double w_ij, double w_ji, double ep_ij, double ep_ji,
                                    double p_i, double b4_i, double p_j, double b4_j, double v_j) {
-  const double e_ij = kPlastic ? g.extension - ep_ij : g.extension;
-  const double e_ji = kPlastic ? g.extension - ep_ji : g.extension;
-  const double a_ij = w_ij * (g.cosine * p_i + b4_i * e_ij);
-  const double a_ji = w_ji * (g.cosine * p_j + b4_j * e_ji);
+  const double a_ij = side_force_state<kPlastic>(g, w_ij, ep_ij, p_i, b4_i);
+  const double a_ji = side_force_state<kPlastic>(g, w_ji, ep_ji, p_j, b4_j);
   return 0.5 * (a_ij + a_ji) * g.inverse_length * v_j;
 }
 

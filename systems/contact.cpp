@@ -19,9 +19,10 @@
 // Neighbour search: a Verlet list with a skin (components/contact.hpp, ContactPairs). The list holds,
 // per particle, the unbonded particles within the largest d_c + skin. It is rebuilt only when some
 // particle has moved more than skin/2 since the last build, relative to the mean motion (a common
-// translation changes no distance), so every pair that can come closer than d_c is in it; a bond that breaks adds its pair (add_broken_pairs) without a rebuild. The build uses a
-// hashed uniform grid (cell = largest d_c + skin, counting sort, stable: particles in a bucket stay in
-// index order) and visits 9 rows of 3 cells in a fixed order. Each particle then gathers the forces on
+// translation changes no distance), so every pair that can come closer than d_c is in it; a bond
+// that breaks adds its pair (add_broken_pairs) without a rebuild. The build uses a hashed uniform grid
+// (cell = largest d_c + skin, counting sort, stable: particles in a bucket stay in index order) and
+// visits 9 rows of 3 cells in a fixed order. Each particle then gathers the forces on
 // itself from its list (no scatter, no atomics), so the result does not depend on the thread count.
 // Every scalar of the pair term is symmetric in (i, j) and every vector flips sign exactly with r and
 // v_j − v_i, so the force j computes on itself is bit-for-bit the negative of the one i computes:
@@ -125,7 +126,8 @@ std::uint64_t* stamp_row(ContactPairs& pr, std::size_t n) {
 }
 
 // What the pair list needs before this step's forces: nothing, the pairs of bonds broken since the
-// last update, or a full rebuild (first step, or some particle moved more than skin/2 since the build).
+// last update, or a full rebuild (first step, or some particle moved more than skin/2 since the build,
+// relative to the mean motion).
 enum class PairUpdate { none, add_broken, rebuild };
 PairUpdate pair_update_needed(const WorldState& w, std::uint64_t& broken_now) {
   const auto& pr = w.contact.pairs;

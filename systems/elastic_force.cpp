@@ -3,8 +3,10 @@
 //   A_ij = ω_ij (Λ_ij P_i + b4_i (e_ij − e^p_ij)),   P_i = (a4_i − b4_i β_i) θ_i,
 // which is A_dil + A_dev of Eq 4 and Eq 12 (Eq 8 when e^p = 0) with a4 = 4a, b4 = 4b, β = δ/4.
 // e_ji = e_ij and Λ_ji = Λ_ij, so A_ji needs only P_j, b4_j and, with anisotropy or plasticity,
-// the mirror bond's ω_ji and e^p_ji (Bonds::plastic_extension_mirror). Each particle gathers its own sum (no scatter, no atomics):
-// the result is independent of thread count, and pair forces are equal and opposite to round-off.
+// the mirror bond's ω_ji and e^p_ji (Bonds::plastic_extension_mirror). Each particle gathers its
+// own sum (no scatter, no atomics): the result is independent of thread count, and pair forces are
+// equal and opposite to round-off. The per-bond rule is paired_force_density (bond_rules.hpp), shared
+// with the fused bond pass and, through side_force_state, with the virial stress below.
 // Reads:  position, dilatation, plastic_extension, bond_alive.   Writes: internal_force.
 #include "bond_rules.hpp"
 #include "parallel.hpp"
@@ -13,31 +15,23 @@
 namespace perifx::systems {
 namespace {
 
-// Visits every alive bond i→j of particle i with A_ij, A_ji and 1/|y_j − y_i|; the paired force
-// density of the bond is ½ (A_ij + A_ji) (y_j − y_i)/|y_j − y_i|. One definition serves the force
-// and the stress, so they can never disagree. e^p_ji is read from the bond's mirror copy (a stream),
-// ω_ji, with anisotropy only, through `reverse` (a gather).
-template <bool kAnisotropic, bool kPlastic, class Sink>
+// Visits every alive bond i→j of particle i with A_ij (side_force_state, the rule the force uses
+// through paired_force_density), 1/|y_j − y_i| and y_j − y_i, for the virial stress.
+template <bool kPlastic, class Sink>
 inline void visit_bonds(const WorldState& w, const std::vector<Vec3>& y, const std::vector<double>& coupling,
                         std::size_t i, Sink&& sink) {
   const Bonds& b = w.bonds;
   const auto& x = w.particles.reference_position;
-  const auto& b4 = w.model.b4;
   const Vec3 yi = y[i], xi = x[i];
-  const double p_i = coupling[i], b4_i = b4[i];
+  const double p_i = coupling[i], b4_i = w.model.b4[i];
   for (std::uint32_t k = b.offsets[i], end = b.offsets[i + 1]; k < end; ++k) {
     if (!b.alive[k]) continue;
     const std::uint32_t j = b.neighbor[k];
     const Vec3 dy = y[j] - yi;
     BondGeometry g;
     if (!bond_geometry(dy, x[j] - xi, b.reference_length[k], g)) continue;
-    const double w_ij = b.weight[k];
-    const double w_ji = kAnisotropic ? b.weight[b.reverse[k]] : w_ij;
-    const double e_ij = kPlastic ? g.extension - b.plastic_extension[k] : g.extension;
-    const double e_ji = kPlastic ? g.extension - b.plastic_extension_mirror[k] : g.extension;
-    const double a_ij = w_ij * (g.cosine * p_i + b4_i * e_ij);
-    const double a_ji = w_ji * (g.cosine * coupling[j] + b4[j] * e_ji);
-    sink(j, a_ij, a_ji, g.inverse_length, dy);
+    const double a_ij = side_force_state<kPlastic>(g, b.weight[k], b.plastic_extension[k], p_i, b4_i);
+    sink(j, a_ij, g.inverse_length, dy);
   }
 }
 
@@ -110,11 +104,11 @@ void compute_virial_stress(const WorldState& w, const std::vector<Vec3>& y, cons
   const auto& volume = w.particles.volume;
   const auto& x = w.particles.reference_position;
   stress.resize(w.particles.count());
-  dispatch(w, [&](auto aniso, auto plastic) {
+  dispatch(w, [&](auto, auto plastic) {
     parallel_for_each(w.particles.count(), [&](std::size_t i) {
       Mat3 s_i = Mat3::Zero();
-      visit_bonds<decltype(aniso)::value, decltype(plastic)::value>(
-          w, y, coupling, i, [&](std::uint32_t j, double a_ij, double, double inv_len, const Vec3& dy) {
+      visit_bonds<decltype(plastic)::value>(
+          w, y, coupling, i, [&](std::uint32_t j, double a_ij, double inv_len, const Vec3& dy) {
             s_i += (0.5 * a_ij * inv_len * volume[j]) * dy * (x[j] - x[i]).transpose();
           });
       stress[i] = s_i;
