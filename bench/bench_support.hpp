@@ -19,7 +19,7 @@
 
 #include "perifx/world.hpp"
 #include "systems/systems.hpp"
-#include "world_state.hpp"
+#include "components/world_state.hpp"
 
 namespace perifx::bench {
 

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "components/math.hpp"
+#include "perifx/mesh.hpp"  // SurfaceMesh
 
 namespace perifx {
 
@@ -82,14 +83,5 @@ struct EmbeddedMesh {
 }  // namespace perifx
 
 namespace perifx {
-
-// Boundary triangles of the current (split) embedded mesh, for output (systems/mesh_surface.cpp).
-struct SurfaceMesh {
-  std::vector<Vec3> vertices;                          // only the referenced ones, in vertex order
-  std::vector<std::array<std::uint32_t, 3>> triangles; // outward (counter-clockwise seen from outside)
-  std::vector<std::uint8_t> crack;                     // 1: the face was interior in the original mesh
-  std::vector<std::uint32_t> fragment;                 // fragment id of the triangle's tet's particle
-  std::vector<std::uint32_t> tet;                      // the tet the triangle bounds
-};
 
 }  // namespace perifx

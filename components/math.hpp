@@ -1,18 +1,4 @@
-// Small math vocabulary shared by every component and system.
-// Positions and everything that enters a bond extension are double precision: the rigid-motion and
-// momentum tests need extensions exact to ~1e-13 of a bond length, which float (1e-7) cannot give.
+// Components share the public math vocabulary (Vec3, Mat3, kInfinity) so that a host sees the same
+// types the systems use: see engine/include/perifx/math.hpp.
 #pragma once
-#include <Eigen/Core>
-#include <Eigen/Geometry>
-#include <cstdint>
-#include <limits>
-
-namespace perifx {
-
-using Vec3 = Eigen::Vector3d;
-using Mat3 = Eigen::Matrix3d;
-
-inline constexpr double kInfinity = std::numeric_limits<double>::infinity();
-inline constexpr double kPi = 3.14159265358979323846;
-
-}  // namespace perifx
+#include "perifx/math.hpp"

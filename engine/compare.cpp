@@ -12,7 +12,7 @@
 #include <sstream>
 
 #include "io/io.hpp"
-#include "world_state.hpp"
+#include "components/world_state.hpp"
 
 namespace perifx {
 namespace fs = std::filesystem;
@@ -256,9 +256,9 @@ std::vector<Vec3> interpolate(const std::vector<Vec3>& vertices, const Embedding
 }  // namespace
 
 void write_run_mesh(const WorldState& w, const fs::path& directory) {
-  const bool fem = w.scene.solver != scene::Solver::peridynamics;
+  const bool fem = w.settings.solver != scene::Solver::peridynamics;
   std::string text = "{\n  \"solver\": \"";
-  text += solver_name(w.scene.solver);
+  text += solver_name(w.settings.solver);
   text += "\",\n  \"particles_are\": \"";
   text += fem ? "mesh_vertices" : "tet_barycenters";
   text += "\",\n  \"particles\": " + std::to_string(w.particles.count());

@@ -8,8 +8,6 @@
 
 #include "compare.hpp"
 #include "io/io.hpp"
-#include "world_state.hpp"
-#include "systems/systems.hpp"
 
 namespace perifx {
 namespace {
@@ -65,7 +63,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
   io::PvdSeries surface_pvd(summary.output_directory / "surface.pvd");
   io::PvdSeries tets_pvd(summary.output_directory / "tets.pvd");
   const bool mesh_output = sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || sc.output.tets_vtu;
-  if (mesh_output && world.state().embedded.tets.empty())
+  if (mesh_output && !world.has_embedded_mesh())
     throw std::invalid_argument("output formats obj/surface_ply/surface_vtp/tets_vtu need the embedded tet mesh "
                                 "(solver 'peridynamics')");
   if (sc.output.obj) io::write_surface_mtl(summary.output_directory / "surface.mtl");
@@ -84,14 +82,9 @@ RunSummary run_world(World& world, const RunOptions& options) {
     if (sc.output.ply) io::write_ply_points(summary.output_directory / frame_name(k, "ply"), points, fields);
     // Embedded tet mesh (§5.2): the split mesh's surface (original + crack triangles) and its tets.
     if (mesh_output) {
-      WorldState& ws = world.state_mutable();
-      systems::update_mesh_vertices(ws, 0.0);  // dt = 0: positions current without moving them again
-      std::vector<std::uint32_t> fragment;
-      systems::compute_fragments(ws, fragment);
       const auto& dir = summary.output_directory;
       if (sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp) {
-        SurfaceMesh surface;
-        systems::extract_surface(ws, &fragment, surface);
+        const SurfaceMesh surface = world.surface();
         if (sc.output.obj) io::write_obj_surface(dir / frame_name(k, "obj", "surface"), surface);
         if (sc.output.surface_ply) io::write_ply_surface(dir / frame_name(k, "ply", "surface"), surface);
         if (sc.output.surface_vtp) {
@@ -100,14 +93,19 @@ RunSummary run_world(World& world, const RunOptions& options) {
         }
       }
       if (sc.output.tets_vtu) {
-        io::write_vtu_tets(dir / frame_name(k, "vtu", "tets"), ws.embedded.vertices, ws.embedded.tets, ws.state.damage,
-                           fragment);
+        const TetMeshView mesh = world.tet_mesh();
+        const FieldView damage = world.field("damage"), fragment = world.field("fragment_id");
+        const auto* damage_data = static_cast<const double*>(damage.data);
+        const auto* fragment_data = static_cast<const std::uint32_t*>(fragment.data);
+        io::write_vtu_tets(dir / frame_name(k, "vtu", "tets"), {mesh.vertices.begin(), mesh.vertices.end()},
+                           {mesh.tets.begin(), mesh.tets.end()}, {damage_data, damage_data + damage.count},
+                           {fragment_data, fragment_data + fragment.count});
         tets_pvd.add(world.time(), frame_name(k, "vtu", "tets"));
       }
     }
     // Rigid projectiles: one CSV row per projectile and frame; the whole file is rewritten
     // atomically each frame, so a reader never sees a half-written row.
-    if (const auto& projectiles = world.state().projectiles.bodies; !projectiles.empty()) {
+    if (const auto projectiles = world.projectiles(); !projectiles.empty()) {
       std::ostringstream rows;
       rows.precision(17);
       if (projectile_csv.empty()) projectile_csv = "time,id,x,y,z,vx,vy,vz,wx,wy,wz,fx,fy,fz\n";
@@ -159,8 +157,8 @@ RunSummary run_world(World& world, const RunOptions& options) {
   summary.output_seconds = output_wall;
   summary.bond_updates_per_second = step_wall > 0 ? double(bonds) * double(summary.steps) / step_wall : 0.0;
   summary.threads = world.threads();
-  summary.contact_list_builds = world.state().contact.pairs.builds;
-  summary.contact_list_additions = world.state().contact.pairs.additions;
+  summary.contact_list_builds = world.contact_counters().list_builds;
+  summary.contact_list_additions = world.contact_counters().list_additions;
 
   std::ostringstream js;
   js.precision(17);

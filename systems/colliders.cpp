@@ -35,7 +35,7 @@ void respond(Vec3& v, const Vec3& surface_velocity, const Vec3& normal, const sc
 
 SystemDecl collider_system(WorldState& w) {
   return {"colliders", {Component::time, Component::flags}, {Component::position, Component::velocity}, [&w] {
-            const auto& colliders = w.scene.colliders;
+            const auto& colliders = w.settings.colliders;
             if (colliders.empty()) return;
             const double t = w.clock.time + w.clock.dt;
             std::vector<Placed> placed;  // a handful of colliders; allocation outside the particle loop

@@ -262,7 +262,7 @@ void rebuild_pairs(WorldState& w, std::uint64_t broken_now) {
 }  // namespace
 
 void setup_contact(WorldState& w) {
-  const auto& sc = w.scene.contact;
+  const auto& sc = w.settings.contact;
   auto& c = w.contact;
   c.enabled = sc.mode == scene::Contact::Mode::on ||
               (sc.mode == scene::Contact::Mode::automatic && (w.bodies.size() >= 2 || w.any_fracture));
@@ -291,7 +291,7 @@ void setup_contact(WorldState& w) {
   pr.alive_at_build.assign(w.bonds.alive.size(), 1);
   // One row per worker slot of the arena the step runs in (scene threads, or the machine's).
   pr.stamp_slots = static_cast<std::size_t>(
-      std::max(w.scene.threads > 0 ? w.scene.threads : 0, tbb::info::default_concurrency()));
+      std::max(w.settings.threads > 0 ? w.settings.threads : 0, tbb::info::default_concurrency()));
   pr.bonded_stamp.assign(pr.stamp_slots * n, 0);
   pr.stamp_base = 0;
   pr.valid = false;

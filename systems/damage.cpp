@@ -14,6 +14,7 @@
 
 #include "bond_rules.hpp"
 #include "parallel.hpp"
+#include "field_registry.hpp"
 #include "systems.hpp"
 
 namespace perifx::systems {
@@ -46,6 +47,26 @@ SystemDecl damage_system(WorldState& w) {
 SystemDecl fracture_threshold_system(WorldState& w) {
   return {"fracture_threshold", {Component::damage}, {Component::fracture_threshold},
           [&w] { compute_fracture_thresholds(w); }};
+}
+
+
+void register_damage_fields(FieldRegistry& r) {
+  // damage and broken_bonds are kept current every step by this system (or the fused bond pass).
+  r.push_back(make_field("damage", FieldType::f64, 1, "1", "φ = 1 − n/N (Eq 19)",
+                         [](WorldState& w, FieldView& v) { view_array(v, w.state.damage); }));
+  r.push_back(make_field("alive_bonds", FieldType::u32, 1, "1", "bonds still holding", [](WorldState& w, FieldView& v) {
+    const Bonds& b = w.bonds;
+    const std::size_t n = w.particles.count();
+    w.derived.alive_bonds.resize(n);
+    parallel_for_each(n, [&](std::size_t i) {
+      std::uint32_t alive = 0;
+      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) alive += b.alive[k];
+      w.derived.alive_bonds[i] = alive;
+    });
+    view_array(v, w.derived.alive_bonds);
+  }, true));
+  r.push_back(make_field("broken_bonds", FieldType::u32, 1, "1", "N − n: bonds broken since setup",
+                         [](WorldState& w, FieldView& v) { view_array(v, w.state.broken_bonds); }));
 }
 
 }  // namespace perifx::systems

@@ -6,6 +6,7 @@
 // Reads:  position, bond_alive.   Writes: dilatation (θ and P).
 #include "bond_rules.hpp"
 #include "parallel.hpp"
+#include "field_registry.hpp"
 #include "systems.hpp"
 
 namespace perifx::systems {
@@ -50,6 +51,12 @@ SystemDecl dilatation_system(WorldState& w) {
           {Component::position, Component::bond_alive},
           {Component::dilatation},
           [&w] { compute_dilatation(w, w.particles.position, w.state.dilatation, w.state.dilatation_coupling); }};
+}
+
+
+void register_dilatation_fields(FieldRegistry& r) {
+  r.push_back(make_field("dilatation", FieldType::f64, 1, "1", "θ (Eq 6)",
+                         [](WorldState& w, FieldView& v) { view_array(v, w.state.dilatation); }));
 }
 
 }  // namespace perifx::systems

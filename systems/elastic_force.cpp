@@ -123,4 +123,28 @@ SystemDecl elastic_force_system(WorldState& w) {
           [&w] { compute_internal_force(w, w.particles.position, w.state.dilatation_coupling, w.state.internal_force); }};
 }
 
+// Elastic energy of the current state (systems/README.md): Σ_i V_i [k_i θ_i² + b_i Σ_j ω_ij (e_ij − e^p_ij)² V_j],
+// k_i = (a_i − b_i β_i)/c_i, whose negative gradient is the paired force above (to first order in Λ).
+// Used by World::diagnostics and the energy-conservation tests. FEM mode: the FEM energy.
+double elastic_energy(const WorldState& w) {
+  if (w.settings.solver != scene::Solver::peridynamics) return fem_elastic_energy(w, w.particles.position);
+  const auto& b = w.bonds;
+  const auto& p = w.particles;
+  const auto& md = w.model;
+  return deterministic_sum(p.count(), 0.0, [&](std::size_t i) {
+    if (md.dilatation_scale[i] == 0.0) return 0.0;
+    const double a = 0.25 * md.a4[i], bb = 0.25 * md.b4[i];
+    const double k = (a - bb * md.beta[i]) / md.dilatation_scale[i];
+    double bond_sum = 0.0;
+    for (std::uint32_t q = b.offsets[i]; q < b.offsets[i + 1]; ++q) {
+      if (!b.alive[q]) continue;
+      const std::uint32_t j = b.neighbor[q];
+      const double e = (p.position[j] - p.position[i]).norm() - b.reference_length[q] - b.plastic_extension[q];
+      bond_sum += b.weight[q] * e * e * p.volume[j];
+    }
+    const double th = w.state.dilatation[i];
+    return p.volume[i] * (k * th * th + bb * bond_sum);
+  });
+}
+
 }  // namespace perifx::systems

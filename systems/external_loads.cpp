@@ -8,7 +8,7 @@ namespace perifx::systems {
 
 SystemDecl external_load_system(WorldState& w) {
   return {"external_loads", {}, {Component::external_force}, [&w] {
-            const Vec3 g = w.scene.gravity;
+            const Vec3 g = w.settings.gravity;
             const auto& mass = w.particles.mass;
             auto& out = w.state.external_force;
             parallel_for_each(w.particles.count(), [&](std::size_t i) { out[i] = mass[i] * g; }, 4096);

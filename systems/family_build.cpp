@@ -117,7 +117,7 @@ void symmetrize(Lists& lists) {
 void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>>& tet_face_neighbors) {
   const auto& x = w.particles.reference_position;
   const std::size_t n = x.size();
-  Lists lists = w.scene.family == scene::FamilyRule::mesh ? families_by_mesh(w, tet_face_neighbors)
+  Lists lists = w.settings.family == scene::FamilyRule::mesh ? families_by_mesh(w, tet_face_neighbors)
                                                           : families_by_distance(w);
   symmetrize(lists);
 
@@ -134,7 +134,7 @@ void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>
   b.plastic_extension_mirror.assign(m, 0.0);
   b.initial_count.resize(n);
   parallel_for_each(n, [&](std::size_t i) {
-    const Mat3& G = w.scene.materials[w.particles.material_id[i]].anisotropy;
+    const Mat3& G = w.settings.materials[w.particles.material_id[i]].anisotropy;
     const bool isotropic = G == Mat3::Identity();
     const double delta = w.model.horizon[i];
     b.initial_count[i] = static_cast<std::uint32_t>(lists[i].size());

@@ -16,7 +16,7 @@ void setup_fem(WorldState& w) {
   const auto& tets = w.mesh.tets;
   const auto& x = w.particles.reference_position;
   const std::size_t nt = tets.size(), nv = x.size();
-  f.corotated = w.scene.solver == scene::Solver::fem_corotated;
+  f.corotated = w.settings.solver == scene::Solver::fem_corotated;
   f.dm_inverse.resize(nt);
   f.volume.resize(nt);
   f.lame_lambda.resize(nt);
@@ -34,7 +34,7 @@ void setup_fem(WorldState& w) {
                                   std::to_string(det) + ")");
     f.dm_inverse[t] = dm.inverse();
     f.volume[t] = det / 6.0;
-    const auto& mat = w.scene.materials[w.particles.material_id[v[0]]];
+    const auto& mat = w.settings.materials[w.particles.material_id[v[0]]];
     f.lame_mu[t] = mat.shear_modulus;
     f.lame_lambda[t] = mat.bulk_modulus - 2.0 * mat.shear_modulus / 3.0;
   }

@@ -5,6 +5,7 @@
 // Reads: bond_alive.   Writes: nothing in the world (the caller's fragment_id array).
 #include <numeric>
 
+#include "field_registry.hpp"
 #include "systems.hpp"
 
 namespace perifx::systems {
@@ -35,6 +36,16 @@ std::size_t compute_fragments(const WorldState& w, std::vector<std::uint32_t>& i
     count += id[i] == i;
   }
   return count;
+}
+
+
+void register_fragment_fields(FieldRegistry& r) {
+  r.push_back(make_field("fragment_id", FieldType::u32, 1, "1",
+                         "connected component of alive bonds: its smallest particle index",
+                         [](WorldState& w, FieldView& v) {
+    w.derived.fragment_count = compute_fragments(w, w.derived.fragment_id);
+    view_array(v, w.derived.fragment_id);
+  }, true));
 }
 
 }  // namespace perifx::systems

@@ -12,6 +12,7 @@
 #include <cmath>
 
 #include "parallel.hpp"
+#include "field_registry.hpp"
 #include "systems.hpp"
 
 namespace perifx::systems {
@@ -54,6 +55,22 @@ SystemDecl kick_end_system(WorldState& w) {
               p.velocity[i] = decay * p.velocity[i] + half * a;
             }, 4096);
           }};
+}
+
+
+void register_integration_fields(FieldRegistry& r) {
+  r.push_back(make_field("position", FieldType::f64, 3, "m", "current position y",
+                         [](WorldState& w, FieldView& v) { view_array(v, w.particles.position); }));
+  r.push_back(make_field("velocity", FieldType::f64, 3, "m/s", "velocity",
+                         [](WorldState& w, FieldView& v) { view_array(v, w.particles.velocity); }));
+  r.push_back(make_field("displacement", FieldType::f64, 3, "m", "y − x", [](WorldState& w, FieldView& v) {
+    const auto& p = w.particles;
+    w.derived.displacement.resize(p.count());
+    parallel_for_each(p.count(), [&](std::size_t i) { w.derived.displacement[i] = p.position[i] - p.reference_position[i]; });
+    view_array(v, w.derived.displacement);
+  }, true));
+  r.push_back(make_field("acceleration", FieldType::f64, 3, "m/s^2", "acceleration from the last force evaluation",
+                         [](WorldState& w, FieldView& v) { view_array(v, w.particles.acceleration); }));
 }
 
 }  // namespace perifx::systems

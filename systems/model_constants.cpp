@@ -33,9 +33,9 @@ void compute_model_constants(WorldState& w) {
   md.plastic_cap.resize(n);
   md.critical_stretch.resize(n);
   md.damage_alpha.resize(n);
-  const bool discrete = w.scene.normalization == scene::Normalization::discrete;
+  const bool discrete = w.settings.normalization == scene::Normalization::discrete;
   parallel_for_each(n, [&](std::size_t i) {
-    const auto& mat = w.scene.materials[w.particles.material_id[i]];
+    const auto& mat = w.settings.materials[w.particles.material_id[i]];
     const double delta = md.horizon[i];
     const double kappa = mat.bulk_modulus, mu = mat.shear_modulus;
     double scale, a, b, beta;

@@ -14,6 +14,7 @@
 // runs the bond systems separately (otherwise bond_pass.cpp applies the same rule in its fused pass).
 #include "bond_rules.hpp"
 #include "parallel.hpp"
+#include "field_registry.hpp"
 #include "systems.hpp"
 
 namespace perifx::systems {
@@ -55,6 +56,27 @@ SystemDecl plasticity_system(WorldState& w) {
           {Component::position, Component::dilatation, Component::plastic_extension, Component::bond_alive},
           {Component::plastic_extension},
           [&w] { update_plastic_extension(w, w.particles.position); }};
+}
+
+
+void register_plasticity_fields(FieldRegistry& r) {
+  r.push_back(make_field("plastic_strain", FieldType::f64, 1, "1", "mean |e^p|/|ξ| over alive bonds (Eq 11–16)",
+                         [](WorldState& w, FieldView& v) {
+    const Bonds& b = w.bonds;
+    const std::size_t n = w.particles.count();
+    w.derived.plastic_strain.resize(n);
+    parallel_for_each(n, [&](std::size_t i) {
+      std::uint32_t alive = 0;
+      double plastic = 0.0;
+      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
+        if (!b.alive[k]) continue;
+        ++alive;
+        plastic += std::abs(b.plastic_extension[k]) / b.reference_length[k];
+      }
+      w.derived.plastic_strain[i] = alive ? plastic / double(alive) : 0.0;
+    });
+    view_array(v, w.derived.plastic_strain);
+  }, true));
 }
 
 }  // namespace perifx::systems

@@ -26,7 +26,7 @@ namespace perifx::systems {
 void setup_projectiles(WorldState& w) {
   auto& set = w.projectiles;
   set.bodies.clear();
-  for (const auto& sp : w.scene.projectiles) {
+  for (const auto& sp : w.settings.projectiles) {
     Projectile pr;
     pr.radius = sp.radius;
     pr.mass = sp.mass;
@@ -35,7 +35,7 @@ void setup_projectiles(WorldState& w) {
     pr.center = sp.center;
     pr.velocity = sp.velocity;
     pr.angular_velocity = sp.angular_velocity;
-    pr.acceleration = w.scene.gravity;
+    pr.acceleration = w.settings.gravity;
     set.bodies.push_back(pr);
   }
   const std::size_t slots = w.particles.count() * set.bodies.size();
@@ -113,7 +113,7 @@ SystemDecl projectile_contact_system(WorldState& w) {
                 torque += set.torque[i * np + k];
               }
               pr.contact_force = force;
-              pr.acceleration = force / pr.mass + w.scene.gravity;
+              pr.acceleration = force / pr.mass + w.settings.gravity;
               pr.angular_acceleration = torque / pr.inertia;
               pr.velocity += half * pr.acceleration;
               pr.angular_velocity += half * pr.angular_acceleration;

@@ -1,20 +1,11 @@
-// Every system of a perifx step, and the kernels they wrap. One .cpp per system; each file's header
-// comment names the paper's equations it implements and the components it reads and writes.
-//
-// Per-step order (the scheduler derives the actual graph from the declared reads/writes), with
-// model.fuse_bond_systems (the default):
-//   kick_begin → boundary_conditions → drift → colliders → (contact) → dilatation → bond_pass
-//   (plasticity + elastic_force + fracture + damage in one pass over the bonds);
-//   external_loads (independent of the chain above) → kick_end → (fracture_threshold)
-//   → (crack_faces → mesh_split) → mesh_vertices      (embedded mesh, §5.2)
-// and with it false, the separate systems in place of bond_pass: (plasticity) → elastic_force, and
-// after kick_end (fracture → damage). Both give the same bits.
-// i.e. velocity Verlet (kick–drift–kick), with constraints applied to the velocity before the drift.
+// Every system of perifx and the kernels they wrap. One .cpp per system; each file's header comment
+// names the paper's equations it implements (systems/README.md) and the components it reads and
+// writes. The step's systems and their order are listed once, in pipeline.cpp.
 #pragma once
 #include <vector>
 
-#include "scheduler.hpp"
-#include "world_state.hpp"
+#include "components/world_state.hpp"
+#include "system.hpp"
 
 namespace perifx::systems {
 
@@ -46,6 +37,8 @@ void compute_internal_force(const WorldState& world, const std::vector<Vec3>& y,
 // Virial stress per particle from its own force state (the state-based stress σ = ∫ T⟨ξ⟩ ⊗ ξ dV):
 // σ_i = ½ Σ_j A_ij n_ij ⊗ ξ_ij V_j, Pa. (Using the paired ½(A_ij + A_ji) instead would mix in the
 // neighbours' constants, which differ between the lattice's tet types.)
+// Elastic energy of the current state (J); FEM mode: the FEM energy.
+double elastic_energy(const WorldState& world);
 void compute_virial_stress(const WorldState& world, const std::vector<Vec3>& y,
                            const std::vector<double>& coupling, std::vector<Mat3>& stress);
 // plasticity.cpp: Eq 11–16 consistent return, in place on bonds.plastic_extension (and its mirror

@@ -17,7 +17,7 @@
 #include "perifx/world.hpp"
 #include "render/command.hpp"
 #include "runner.hpp"
-#include "world_state.hpp"
+#include "components/world_state.hpp"
 
 namespace {
 

@@ -10,14 +10,9 @@
 #include <vector>
 
 #include "components/tet_mesh.hpp"
+#include "perifx/errors.hpp"
 
 namespace perifx::geometry {
-
-// A mesh that cannot be used; what() names the file and line when there is one.
-class GeometryError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 // Structured meshers. Each fills a grid of cubes of side ~cell (adjusted so a whole number of cells
 // spans the box) and splits every cube into 6 tets around its main diagonal (Freudenthal/Kuhn), which

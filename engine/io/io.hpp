@@ -9,15 +9,11 @@
 #include <vector>
 
 #include "components/embedded_mesh.hpp"
-#include "components/field_registry.hpp"
+#include "perifx/fields.hpp"
 #include "components/math.hpp"
+#include "perifx/errors.hpp"
 
 namespace perifx::io {
-
-class IoError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 // Writes through `fill` into a temporary file, then renames it to `target`. Throws IoError naming
 // the path and the OS error on failure (and removes the temporary).

@@ -13,7 +13,7 @@
 
 #include "io/io.hpp"
 #include "render/render_run.hpp"
-#include "scene/scene.hpp"
+#include "perifx/scene.hpp"
 
 namespace perifx::render {
 namespace {

@@ -21,7 +21,7 @@
 
 #include "io/io.hpp"
 #include "render/png.hpp"
-#include "scene/scene.hpp"
+#include "perifx/scene.hpp"
 
 namespace perifx::render {
 

@@ -11,18 +11,12 @@
 #include <sstream>
 #include <utility>
 
-#include "scene/scene.hpp"
+#include "perifx/scene.hpp"
 #include "scene/schema.hpp"
 
 namespace fs = std::filesystem;
 
 namespace perifx::scene {
-
-SceneError::SceneError(std::string file, std::string pointer, std::string message)
-    : std::runtime_error(file + ": " + (pointer.empty() ? "" : pointer + ": ") + message),
-      file_(std::move(file)),
-      pointer_(std::move(pointer)),
-      message_(std::move(message)) {}
 
 namespace {
 

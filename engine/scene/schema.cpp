@@ -10,7 +10,7 @@
 #include <iomanip>
 #include <sstream>
 
-#include "scene/scene.hpp"
+#include "perifx/scene.hpp"
 
 namespace perifx::scene::detail {
 

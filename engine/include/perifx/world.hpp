@@ -1,12 +1,17 @@
 // perifx public API: build a world from a scene file or a Scene built in code, step it, read its
-// fields. A World owns all of its data and its own thread pool (a oneTBB arena); there are no globals,
-// so a host can run any number of worlds side by side.
+// fields, surfaces and pieces. A World owns all of its data and its own thread pool (a oneTBB
+// arena); there are no globals, so a host can run any number of worlds side by side.
 //
 //   perifx::World world = perifx::World::from_file("assets/scenes/cantilever.json");
 //   while (world.time() < 1.0) world.step();
 //   auto y = world.positions();                       // std::span<const perifx::Vec3>
 //   perifx::FieldView damage = world.field("damage");
+//
+// This header and the ones it includes (engine/include/perifx/) are the whole public interface;
+// they need only this directory and Eigen on the include path. Errors: perifx/errors.hpp.
 #pragma once
+#include <array>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <span>
@@ -14,29 +19,61 @@
 #include <string_view>
 #include <vector>
 
-#include "components/field_registry.hpp"
-#include "components/math.hpp"
-#include "engine/scene/scene.hpp"
+#include "perifx/errors.hpp"
+#include "perifx/fields.hpp"
+#include "perifx/math.hpp"
+#include "perifx/mesh.hpp"
+#include "perifx/scene.hpp"
 
 namespace perifx {
 
 struct WorldState;
 class Scheduler;
 
+// Bytes held by the world's arrays (their capacities), by kind.
 struct MemoryUse {
-  std::size_t particle_bytes = 0;  // all per-particle arrays
-  std::size_t bond_bytes = 0;      // all per-bond arrays
-  std::size_t mesh_bytes = 0;      // embedded tet mesh
+  std::size_t particle_bytes = 0;  // per-particle arrays (positions, model constants, state, CSR offsets)
+  std::size_t bond_bytes = 0;      // per-bond arrays
+  std::size_t mesh_bytes = 0;      // tet mesh, embedded (cracking) mesh, FEM data
+  std::size_t contact_bytes = 0;   // contact grid and pair list
+  std::size_t other_bytes = 0;     // projectiles, boundary lists, derived output fields
+  std::size_t total_bytes = 0;     // sum of the above
   double bytes_per_particle = 0.0; // particle_bytes / particles
   double bytes_per_bond = 0.0;     // bond_bytes / bonds
 };
 
 struct Diagnostics {
   double kinetic_energy = 0.0;     // J
-  double elastic_energy = 0.0;     // J (notes.md energy of the elastic model; plastic work excluded)
+  double elastic_energy = 0.0;     // J (energy of the elastic model; plastic work excluded)
   double gravity_energy = 0.0;     // J, −Σ m g·y
   Vec3 linear_momentum = Vec3::Zero();   // kg m/s
   Vec3 angular_momentum = Vec3::Zero();  // kg m²/s about the origin
+};
+
+struct BodyView {
+  std::string name;
+  std::uint32_t first_particle = 0, particle_count = 0;
+  double mean_edge_length = 0.0;   // λ, m
+  double horizon = 0.0;            // δ, m
+};
+
+struct ProjectileView {
+  double radius = 0.0, mass = 0.0;  // m, kg
+  Vec3 center = Vec3::Zero(), velocity = Vec3::Zero(), angular_velocity = Vec3::Zero();
+  Vec3 contact_force = Vec3::Zero();  // N, on the projectile from the particles (last step)
+};
+
+// The tet mesh the particles live in. Peridynamics: tet t carries particle t, and vertices split as
+// cracks open (paper §5.2). FEM: the reference mesh, whose vertex v is particle v.
+struct TetMeshView {
+  std::span<const Vec3> vertices;
+  std::span<const std::array<std::uint32_t, 4>> tets;
+  std::span<const Vec3> reference_vertices;  // rest positions of `vertices` (FEM: particles' reference)
+};
+
+struct ContactCounters {
+  std::uint64_t list_builds = 0;     // particle-contact pair list: full rebuilds (motion)
+  std::uint64_t list_additions = 0;  // incremental additions of broken bonds' pairs
 };
 
 class World {
@@ -57,11 +94,11 @@ class World {
   std::size_t particle_count() const;
   std::size_t bond_count() const;       // directed bonds (each pair counts twice)
   std::size_t alive_bond_count() const;
-  std::size_t fragment_count() const;  // connected components of alive bonds (computed on call)
+  std::size_t fragment_count() const;  // connected components of alive bonds
   int threads() const;
 
-  // The largest stable explicit step of this world's elastic model (power iteration on the
-  // linearized force at the reference configuration, velocity Verlet limit 2/ω_max).
+  // The largest stable explicit step of this world's elastic model (the largest eigenfrequency of
+  // the linearized force at the reference configuration; velocity Verlet limit 2/ω_max).
   double stable_time_step() const;
   MemoryUse memory() const;
   Diagnostics diagnostics() const;
@@ -72,18 +109,28 @@ class World {
   std::span<const Vec3> velocities() const;
   std::span<Vec3> velocities_mutable();  // a host may kick the solid between steps
 
+  // Fields, as registered by the systems that produce them. A derived field (displacement,
+  // alive_bonds, plastic_strain, fragment_id) is computed when asked for, once per step.
   std::vector<std::string> field_names() const;
   FieldView field(std::string_view name) const;  // throws std::out_of_range listing the names
   std::vector<FieldView> fields() const;
+  // The registered fields without data (name, type, components, unit, doc), for documentation.
+  static std::vector<FieldView> field_catalog();
+
+  std::vector<BodyView> bodies() const;
+  std::vector<ProjectileView> projectiles() const;
+  ContactCounters contact_counters() const;
+  bool has_embedded_mesh() const;   // peridynamics worlds (the FEM solver has no cracking mesh)
+  TetMeshView tet_mesh() const;     // see TetMeshView; current vertex positions
+  SurfaceMesh surface() const;      // boundary triangles of the (split) mesh, with fragment ids
 
   const scene::Scene& scene() const;
   const WorldState& state() const;  // internals, for tools and tests that know the components
-  WorldState& state_mutable();
+  WorldState& state_mutable();      // tests only: invalidates cached derived fields
 
  private:
-  std::unique_ptr<WorldState> state_;
-  std::unique_ptr<Scheduler> scheduler_;
-  double stable_dt_ = 0.0;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 }  // namespace perifx

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "geometry/geometry.hpp"
-#include "scene/scene.hpp"
+#include "perifx/scene.hpp"
 #include "engine/geometry/geometry_test_support.hpp"
 
 namespace fs = std::filesystem;

@@ -8,7 +8,7 @@
 #include <random>
 #include <sstream>
 
-#include "scene/scene.hpp"
+#include "perifx/scene.hpp"
 #include "scene/schema.hpp"
 
 namespace fs = std::filesystem;

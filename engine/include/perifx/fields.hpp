@@ -1,7 +1,9 @@
-// A named, typed, read-only view of one array, so writers and host tools can find fields by name
-// without knowing the component structs.
+// perifx public API: a named, typed, read-only view of one array, so writers and host tools can find
+// fields by name without knowing the component structs. The list of fields comes from the systems
+// that produce them (systems/field_registry.hpp); `perifx info` and the docs print it.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -16,7 +18,8 @@ struct FieldView {
   FieldType type = FieldType::f64;
   int components = 1;         // 1 scalar, 3 vector
   FieldLocation location = FieldLocation::particle;
-  const void* data = nullptr; // count × components values of `type`, contiguous
+  const void* data = nullptr; // count × components values of `type`, contiguous; valid until the
+                              // world steps or is destroyed
   std::size_t count = 0;      // number of tuples
   std::string unit;           // SI unit, for documentation ("m/s")
   std::string doc;            // one line

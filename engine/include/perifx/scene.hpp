@@ -1,4 +1,4 @@
-// The typed scene: what a validated scene JSON turns into. Everything downstream of the scene loader
+// perifx public API: the typed scene: what a validated scene JSON turns into. Everything downstream of the scene loader
 // reads these structs, never raw JSON. All quantities SI (m, kg, s, Pa).
 // The JSON format, with every key's type, default, range and meaning, is generated from the spec in
 // schema.cpp (`perifx spec` prints it; docs copy: assets/scenes/FORMAT.md).
@@ -8,22 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "components/math.hpp"
+#include "perifx/errors.hpp"
+#include "perifx/math.hpp"
 
 namespace perifx::scene {
-
-// A scene that cannot be used. what() is the full one-line message:
-//   "<file>: <json pointer>: <problem> (got <value>; expected <what>)"
-class SceneError : public std::runtime_error {
- public:
-  SceneError(std::string file, std::string pointer, std::string message);
-  const std::string& file() const { return file_; }
-  const std::string& pointer() const { return pointer_; }
-  const std::string& message() const { return message_; }
-
- private:
-  std::string file_, pointer_, message_;
-};
 
 enum class Normalization { paper, discrete };  // notes.md: paper constants, or per-particle discrete sums
 enum class FamilyRule { mesh, distance };

@@ -1,0 +1,127 @@
+// Bodies and particles: meshes every body of the scene (structured mesher, TetGen, Gmsh or a closed
+// surface through the tetgen program), applies its transform, sorts its tets in Morton order and
+// places one particle per tet at the barycenter (V = tet volume, m = ρV, paper §5.2), or, for the
+// FEM reference solver, one particle per mesh vertex with its lumped volume. Also sizes the per-step
+// state arrays.
+#include <algorithm>
+
+#include "geometry/geometry.hpp"
+#include "setup/world_setup.hpp"
+
+namespace perifx::setup {
+namespace {
+
+TetMesh mesh_for(const scene::Body& body) {
+  const auto& g = body.geometry;
+  auto cell_for = [&](double longest) {
+    if (g.edge_length > 0.0) return g.edge_length;
+    const int res = g.resolution > 0 ? g.resolution : 20;
+    return longest / res;
+  };
+  switch (g.kind) {
+    case scene::Geometry::Kind::box: return geometry::mesh_box(g.size, cell_for(g.size.maxCoeff()));
+    case scene::Geometry::Kind::sphere: return geometry::mesh_sphere(g.radius, cell_for(2.0 * g.radius));
+    case scene::Geometry::Kind::cylinder:
+      return geometry::mesh_cylinder(g.radius, g.height, g.axis, cell_for(std::max(2.0 * g.radius, g.height)));
+    case scene::Geometry::Kind::tetgen: return geometry::read_tetgen(g.path);
+    case scene::Geometry::Kind::gmsh: return geometry::read_gmsh(g.path);
+    case scene::Geometry::Kind::surface: {
+      geometry::SurfaceResolution res;
+      res.edge_length = g.edge_length;
+      res.particles = g.particles;
+      res.resolution = g.resolution > 0 ? g.resolution : 20;
+      return geometry::load_surface(g.path, res);
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
+void add_bodies(const scene::Scene& scene, WorldState& w) {
+  const bool fem = scene.solver != scene::Solver::peridynamics;
+  auto& p = w.particles;
+  for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi) {
+    const scene::Body& body = scene.bodies[bi];
+    TetMesh mesh = mesh_for(body);
+    for (Vec3& v : mesh.vertices) v = body.transform.rotation * (body.transform.scale * v) + body.transform.translation;
+    if (mesh.tets.empty()) throw geometry::GeometryError("body '" + body.name + "': its mesh has no tetrahedra");
+    std::vector<Vec3> centers(mesh.tets.size());
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t) centers[t] = geometry::tet_barycenter(mesh, t);
+    geometry::reorder_tets(mesh, geometry::morton_order(centers));
+
+    BodyInfo info;
+    info.name = body.name;
+    info.first_particle = static_cast<std::uint32_t>(p.reference_position.size());
+    info.particle_count = static_cast<std::uint32_t>(fem ? mesh.vertices.size() : mesh.tets.size());
+    info.first_vertex = static_cast<std::uint32_t>(w.mesh.vertices.size());
+    info.vertex_count = static_cast<std::uint32_t>(mesh.vertices.size());
+    info.mean_edge_length = geometry::mean_edge_length(mesh);
+    info.horizon = body.horizon_length > 0.0 ? body.horizon_length : body.horizon_factor * info.mean_edge_length;
+
+    const auto& mat = scene.materials[static_cast<std::size_t>(body.material)];
+    const std::size_t first = p.reference_position.size();
+    std::vector<double> vertex_volume(fem ? mesh.vertices.size() : 0, 0.0);  // lumped: Σ V_t/4
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+      const double vol = geometry::tet_volume(mesh, t);
+      if (fem) {
+        for (auto v : mesh.tets[t]) vertex_volume[v] += 0.25 * vol;
+      } else {
+        const Vec3 c = geometry::tet_barycenter(mesh, t);
+        p.reference_position.push_back(c);
+        p.volume.push_back(vol);
+        p.mass.push_back(mat.density * vol);
+        p.material_id.push_back(static_cast<std::uint16_t>(body.material));
+        p.body_id.push_back(static_cast<std::uint16_t>(bi));
+        w.model.horizon.push_back(info.horizon);
+      }
+      auto tet = mesh.tets[t];
+      for (auto& v : tet) v += info.first_vertex;
+      w.mesh.tets.push_back(tet);
+    }
+    w.mesh.vertices.insert(w.mesh.vertices.end(), mesh.vertices.begin(), mesh.vertices.end());
+    for (std::size_t v = 0; v < vertex_volume.size(); ++v) {
+      if (!(vertex_volume[v] > 0.0))
+        throw geometry::GeometryError("body '" + body.name + "': vertex " + std::to_string(v) +
+                                      " belongs to no tetrahedron; the FEM solver cannot give it a mass");
+      p.reference_position.push_back(mesh.vertices[v]);
+      p.volume.push_back(vertex_volume[v]);
+      p.mass.push_back(mat.density * vertex_volume[v]);
+      p.material_id.push_back(static_cast<std::uint16_t>(body.material));
+      p.body_id.push_back(static_cast<std::uint16_t>(bi));
+      w.model.horizon.push_back(info.horizon);
+    }
+    // Initial rigid velocity about the body's center of mass.
+    Vec3 com = Vec3::Zero();
+    double total = 0.0;
+    const std::size_t last = p.reference_position.size();
+    for (std::size_t i = first; i < last; ++i) {
+      com += p.mass[i] * p.reference_position[i];
+      total += p.mass[i];
+    }
+    com /= total;
+    for (std::size_t i = first; i < last; ++i)
+      p.velocity.push_back(body.velocity + body.angular_velocity.cross(p.reference_position[i] - com));
+    w.bodies.push_back(info);
+  }
+  p.position = p.reference_position;
+}
+
+void allocate_step_state(WorldState& w) {
+  const std::size_t n = w.particles.count();
+  auto& p = w.particles;
+  p.acceleration.assign(n, Vec3::Zero());
+  p.flags.assign(n, 0);
+  auto& s = w.state;
+  s.dilatation.assign(n, 0.0);
+  s.dilatation_coupling.assign(n, 0.0);
+  s.internal_force.assign(n, Vec3::Zero());
+  s.external_force.assign(n, Vec3::Zero());
+  s.damage.assign(n, 0.0);
+  s.break_extension.assign(n, kInfinity);
+  s.bond_end.assign(n, BondEnd{});
+  s.contact_force.assign(n, Vec3::Zero());
+  s.broken_bonds.assign(n, 0);
+}
+
+}  // namespace perifx::setup

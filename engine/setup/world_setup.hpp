@@ -1,0 +1,31 @@
+// Turns a typed scene into a ready WorldState. The work is split by job:
+//   bodies.cpp            meshes every body, places particles (one per tet, Morton order), sizes state
+//   regions.cpp           boundary-condition regions → particle index lists
+//   world_setup.cpp       resolves the scene's settings, then families, initial cracks, the embedded
+//                         mesh, model constants and the initial acceleration (the setup systems)
+//   stable_time_step.cpp  the largest stable explicit step (Spectra)
+// The step's systems themselves are listed in systems/pipeline.cpp.
+#pragma once
+#include <memory>
+
+#include "components/world_state.hpp"
+#include "perifx/scene.hpp"
+#include "scheduler.hpp"
+
+namespace perifx::setup {
+
+// The whole world for `scene`; setup work runs in the scheduler's arena.
+std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Scheduler& scheduler);
+
+// bodies.cpp: bodies, particles and their mesh (appends to w.particles, w.mesh, w.bodies, w.model.horizon).
+void add_bodies(const scene::Scene& scene, WorldState& w);
+// bodies.cpp: per-particle step state (forces, dilatation, damage ...) sized to the particle count.
+void allocate_step_state(WorldState& w);
+// regions.cpp: w.boundary from the scene's boundary conditions.
+void resolve_boundary_conditions(const std::vector<scene::BoundaryCondition>& conditions, WorldState& w);
+
+// stable_time_step.cpp: largest stable velocity-Verlet step 2/ω_max, ω_max² the largest eigenvalue
+// of M⁻¹K for the linearized elastic force at the reference configuration.
+double estimate_stable_time_step(const WorldState& world);
+
+}  // namespace perifx::setup
