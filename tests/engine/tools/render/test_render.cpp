@@ -15,10 +15,10 @@
 
 #include "cli_support.hpp"
 #include "io/io.hpp"
-#include "render/png.hpp"
-#include "render/render.hpp"
-#include "render/render_run.hpp"
-#include "render/run_data.hpp"
+#include "tools/render/png.hpp"
+#include "tools/render/render.hpp"
+#include "tools/render/render_run.hpp"
+#include "io/run_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace perifx;
@@ -288,7 +288,7 @@ TEST_CASE("render: readers round-trip VTU particles and PLY/OBJ surfaces with cr
   io::write_ply_points(dir / "particles.0001.ply", pts, fields);
   for (const auto& file : {dir / "particles.0000.vtu", dir / "particles.0001.ply"}) {
     CAPTURE(file);
-    const ParticleFrame f = read_particles(file);
+    const ParticleFrame f = io::read_particle_frame(file);
     REQUIRE(f.position.size() == 3);
     CHECK((f.position[2] - pts[2]).norm() < 1e-6);
     REQUIRE(f.volume.size() == 3);
@@ -299,7 +299,7 @@ TEST_CASE("render: readers round-trip VTU particles and PLY/OBJ surfaces with cr
 
   std::ofstream(dir / "surface.0002.obj") << "mtllib surface.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
                                              "g surface\nusemtl surface\nf 1 2 3\ng crack\nusemtl crack\nf 2 4 3\n";
-  const SurfaceFrame obj = read_surface(dir / "surface.0002.obj");
+  const SurfaceFrame obj = io::read_surface_frame(dir / "surface.0002.obj");
   REQUIRE(obj.triangle.size() == 2);
   REQUIRE(obj.crack.size() == 2);
   CHECK(obj.crack[0] == 0);
@@ -321,7 +321,7 @@ TEST_CASE("render: readers round-trip VTU particles and PLY/OBJ surfaces with cr
       ply.write(reinterpret_cast<const char*>(&fragment), 4);
     }
   }
-  const SurfaceFrame ply = read_surface(dir / "surface.0003.ply");
+  const SurfaceFrame ply = io::read_surface_frame(dir / "surface.0003.ply");
   REQUIRE(ply.triangle.size() == 2);
   CHECK(ply.triangle[1] == std::array<std::uint32_t, 3>{1, 3, 2});
   REQUIRE(ply.crack.size() == 2);
@@ -330,7 +330,7 @@ TEST_CASE("render: readers round-trip VTU particles and PLY/OBJ surfaces with cr
   REQUIRE(scene.triangles.size() == 2);
   CHECK(scene.triangles[0].color != scene.triangles[1].color);  // crack faces in their own colour
 
-  const RunDirectory run = scan_run_directory(dir);
+  const RunDirectory run = io::scan_run_directory(dir);
   REQUIRE(run.frames.size() == 4);
   CHECK(run.frames[2].surface.filename() == "surface.0002.obj");
   CHECK(run.frames[1].particles.filename() == "particles.0001.ply");
