@@ -6,8 +6,13 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "compare.hpp"
-#include "io/io.hpp"
+#include <nlohmann/json.hpp>
+
+#include "io/atomic.hpp"
+#include "io/obj.hpp"
+#include "io/ply.hpp"
+#include "io/run_dir.hpp"
+#include "io/vtk.hpp"
 
 namespace perifx {
 namespace {
@@ -40,6 +45,31 @@ std::string frame_name(std::uint64_t frame, const char* ext, const char* stem = 
   char buf[96];
   std::snprintf(buf, sizeof buf, "%s.%04llu.%s", stem, static_cast<unsigned long long>(frame), ext);
   return buf;
+}
+
+const char* solver_name(scene::Solver s) {
+  switch (s) {
+    case scene::Solver::peridynamics: return "peridynamics";
+    case scene::Solver::fem_linear: return "fem_linear";
+    case scene::Solver::fem_corotated: return "fem_corotated";
+  }
+  return "?";
+}
+
+// What mesh.json records: FEM particles are the mesh vertices (so the tets go in too), peridynamic
+// particles the tet barycenters.
+io::RunMesh run_mesh(const World& world) {
+  const TetMeshView mesh = world.reference_mesh();
+  const std::vector<std::array<std::uint32_t, 4>> tets(mesh.tets.begin(), mesh.tets.end());
+  io::RunMesh m;
+  m.solver = solver_name(world.scene().solver);
+  m.vertices_are_particles = world.scene().solver != scene::Solver::peridynamics;
+  m.particles = world.particle_count();
+  m.vertices = mesh.vertices.size();
+  m.tet_count = tets.size();
+  m.hash = io::tet_hash(tets, mesh.vertices.size());
+  if (m.vertices_are_particles) m.tets = tets;
+  return m;
 }
 
 }  // namespace
@@ -125,7 +155,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
   write_frame(0);
   // mesh.json: what the particles are and the tet connectivity, so `perifx compare` can map a
   // peridynamic run (tet barycenters) onto an FEM run (mesh vertices) of the same scene.
-  write_run_mesh(world.state(), summary.output_directory);
+  io::write_run_mesh(summary.output_directory, run_mesh(world));
   for (std::uint64_t k = 1; k <= frames; ++k) {
     const std::uint64_t target = first_step + step_of_frame(k);
     const auto t0 = clock::now();
@@ -160,20 +190,25 @@ RunSummary run_world(World& world, const RunOptions& options) {
   summary.contact_list_builds = world.contact_counters().list_builds;
   summary.contact_list_additions = world.contact_counters().list_additions;
 
-  std::ostringstream js;
-  js.precision(17);
-  js << "{\n  \"scene\": \"" << sc.name << "\",\n  \"particles\": " << summary.particles
-     << ",\n  \"bonds\": " << summary.bonds << ",\n  \"alive_bonds\": " << summary.alive_bonds
-     << ",\n  \"fragments\": " << summary.fragments
-     << ",\n  \"steps\": " << summary.steps << ",\n  \"frames\": " << summary.frames
-     << ",\n  \"dt\": " << world.dt() << ",\n  \"simulated_seconds\": " << summary.simulated_seconds
-     << ",\n  \"threads\": " << summary.threads << ",\n  \"step_wall_seconds\": " << summary.wall_seconds
-     << ",\n  \"output_wall_seconds\": " << summary.output_seconds
-     << ",\n  \"bond_updates_per_second\": " << summary.bond_updates_per_second
-     << ",\n  \"contact_list_builds\": " << summary.contact_list_builds
-     << ",\n  \"contact_list_additions\": " << summary.contact_list_additions << "\n}\n";
+  // nlohmann-json does the quoting, so any scene name gives valid JSON; ordered keeps the field order.
+  nlohmann::ordered_json js;
+  js["scene"] = sc.name;
+  js["particles"] = summary.particles;
+  js["bonds"] = summary.bonds;
+  js["alive_bonds"] = summary.alive_bonds;
+  js["fragments"] = summary.fragments;
+  js["steps"] = summary.steps;
+  js["frames"] = summary.frames;
+  js["dt"] = world.dt();
+  js["simulated_seconds"] = summary.simulated_seconds;
+  js["threads"] = summary.threads;
+  js["step_wall_seconds"] = summary.wall_seconds;
+  js["output_wall_seconds"] = summary.output_seconds;
+  js["bond_updates_per_second"] = summary.bond_updates_per_second;
+  js["contact_list_builds"] = summary.contact_list_builds;
+  js["contact_list_additions"] = summary.contact_list_additions;
   // Timings differ run to run; keep them out of the frame files so those stay byte-identical.
-  const std::string text = js.str();
+  const std::string text = js.dump(2) + "\n";
   io::write_atomic(summary.output_directory / "summary.json", [&](std::ostream& out) { out << text; });
   return summary;
 }

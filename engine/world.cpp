@@ -186,6 +186,11 @@ TetMeshView World::tet_mesh() const {
   return {w.embedded.vertices, w.embedded.tets, w.embedded.reference_vertices};
 }
 
+TetMeshView World::reference_mesh() const {
+  const WorldState& w = *impl_->state;
+  return {w.mesh.vertices, w.mesh.tets, w.mesh.vertices};
+}
+
 SurfaceMesh World::surface() const {
   WorldState& w = *impl_->state;
   SurfaceMesh surface;

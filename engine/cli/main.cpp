@@ -1,4 +1,5 @@
-// perifx command line: run, check, info and spec for scene files. Exit codes (also in the README):
+// perifx command line (CLI11): run, check, info and spec for scene files, compare and render for run
+// directories; every command has --help, and perifx --version. Exit codes (also in the README):
 //   0 success   1 usage error   2 invalid scene or mesh   3 output could not be written
 //   4 time step above the stable limit   5 internal error
 #include <unistd.h>
@@ -11,97 +12,69 @@
 #include <string>
 #include <vector>
 
-#include "compare.hpp"
+#include <CLI/CLI.hpp>
+
 #include "geometry/geometry.hpp"
-#include "io/io.hpp"
+#include "io/atomic.hpp"
 #include "perifx/world.hpp"
-#include "render/command.hpp"
 #include "runner.hpp"
-#include "components/world_state.hpp"
+#include "tools/compare.hpp"
+#include "tools/render/command.hpp"
 
 namespace {
 
 enum Exit { kOk = 0, kUsage = 1, kScene = 2, kOutput = 3, kUnstable = 4, kInternal = 5 };
 
-const std::string kUsageText = std::string(
-    "usage: perifx <command> [options]\n"
-    "  run SCENE.json [--out DIR] [--frames N] [--threads N] [--quiet] [--solver S] [--dt SECONDS]\n"
-    "                      simulate and write frames (VTU + PVD for ParaView, PLY for Houdini/Blender);\n"
-    "                      --solver peridynamics|fem_linear|fem_corotated and --dt override the scene\n"
-    "  compare RUN_A RUN_B position deviation of run B from reference run A per frame, over A's\n"
-    "                      bounding-box diagonal at frame 0 (paper §6); writes RUN_A/compare.csv.\n"
-    "                      Same scene; an FEM run may also be of a finer mesh (interpolated)\n"
-    "  check SCENE.json    validate the scene without running it\n"
-    "  info SCENE.json [--threads N]\n"
-    "                      particles, bonds, memory and the stable time step\n"
-    "  spec                print the scene format reference (markdown)\n"
-    ) + perifx::render::kRenderUsage +
-    "exit codes: 0 ok, 1 usage, 2 invalid scene or mesh, 3 output error, 4 unstable time step, 5 internal\n";
+// Usage errors are one line on stderr and exit code 1; `perifx <command> --help` has the details.
+struct UsageError {
+  std::string message;
+};
 
+// What the command line asked for, as CLI11 parsed it; values stay text until checked below, so
+// every bad value gets the same kind of message.
 struct Args {
   std::string command, scene;
-  std::optional<std::string> out;
-  std::optional<std::uint64_t> frames;
-  std::optional<int> threads;
-  std::optional<std::string> solver;
-  std::optional<double> dt;
   std::string second;  // compare: RUN_B
+  std::optional<std::string> out, frames, threads, solver, dt;
   bool quiet = false;
 };
 
-[[noreturn]] void usage_error(const std::string& message) {
-  std::cerr << "perifx: " << message << "\n" << kUsageText;
-  std::exit(kUsage);
-}
-
 long long parse_count(const std::string& flag, const std::string& value, long long min) {
+  std::size_t used = 0;
+  long long v = 0;
   try {
-    std::size_t used = 0;
-    const long long v = std::stoll(value, &used);
-    if (used != value.size() || v < min) throw std::invalid_argument("range");
-    return v;
+    v = std::stoll(value, &used);
   } catch (const std::exception&) {
-    usage_error(flag + " expects an integer >= " + std::to_string(min) + ", got '" + value + "'");
+    used = 0;
   }
+  if (used == 0 || used != value.size() || v < min)
+    throw UsageError{flag + " expects an integer >= " + std::to_string(min) + ", got '" + value + "'"};
+  return v;
 }
 
-Args parse(int argc, char** argv) {
-  if (argc < 2) usage_error("no command given");
-  Args a;
-  a.command = argv[1];
-  if (a.command == "-h" || a.command == "--help" || a.command == "help") {
-    std::cout << kUsageText;
-    std::exit(kOk);
+double parse_positive(const std::string& flag, const std::string& v, const char* what = "a positive number") {
+  char* end = nullptr;
+  const double x = std::strtod(v.c_str(), &end);
+  if (v.empty() || *end != '\0' || !(x > 0) || !std::isfinite(x))
+    throw UsageError{flag + " expects " + what + ", got '" + v + "'"};
+  return x;
+}
+
+// `count` comma-separated finite numbers.
+std::vector<double> parse_numbers(const std::string& flag, const std::string& v, int count, const char* form) {
+  std::vector<double> out;
+  std::size_t at = 0;
+  for (int j = 0; j < count; ++j) {
+    const auto comma = j + 1 < count ? v.find(',', at) : v.size();
+    if (comma == std::string::npos) throw UsageError{flag + " expects " + form + ", got '" + v + "'"};
+    const std::string item = v.substr(at, comma - at);
+    char* end = nullptr;
+    const double x = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end != '\0' || !std::isfinite(x)) throw UsageError{flag + " expects " + form + ", got '" + v + "'"};
+    out.push_back(x);
+    at = comma + 1;
   }
-  for (int k = 2; k < argc; ++k) {
-    const std::string arg = argv[k];
-    auto value = [&]() -> std::string {
-      if (k + 1 >= argc) usage_error(arg + " needs a value");
-      return argv[++k];
-    };
-    if (arg == "--out") a.out = value();
-    else if (arg == "--frames") a.frames = static_cast<std::uint64_t>(parse_count(arg, value(), 1));
-    else if (arg == "--threads") a.threads = static_cast<int>(parse_count(arg, value(), 1));
-    else if (arg == "--quiet") a.quiet = true;
-    else if (arg == "--solver") {
-      a.solver = value();
-      if (*a.solver != "peridynamics" && *a.solver != "fem_linear" && *a.solver != "fem_corotated")
-        usage_error("--solver expects peridynamics, fem_linear or fem_corotated, got '" + *a.solver + "'");
-    } else if (arg == "--dt") {
-      const std::string v = value();
-      char* end = nullptr;
-      a.dt = std::strtod(v.c_str(), &end);
-      if (end != v.c_str() + v.size() || !(*a.dt > 0.0) || !std::isfinite(*a.dt))
-        usage_error("--dt expects a positive number of seconds, got '" + v + "'");
-    }
-    else if (!arg.empty() && arg[0] == '-') usage_error("unknown option '" + arg + "'");
-    else if (a.scene.empty()) a.scene = arg;
-    else if (a.command == "compare" && a.second.empty()) a.second = arg;
-    else usage_error("unexpected argument '" + arg + "'");
-  }
-  if (a.command == "compare" && a.second.empty()) usage_error("'compare' needs two run directories");
-  if (a.command != "spec" && a.scene.empty()) usage_error("'" + a.command + "' needs a scene file");
-  return a;
+  return out;
 }
 
 std::string human_bytes(double b) {
@@ -121,14 +94,21 @@ std::string clock_text(double seconds) {
 }
 
 perifx::scene::Scene load(const Args& a) {
+  // Checked before the scene is read, so a bad option is a usage error even for a bad scene.
+  const std::optional<int> threads =
+      a.threads ? std::optional<int>(static_cast<int>(parse_count("--threads", *a.threads, 1))) : std::nullopt;
+  const std::optional<double> dt =
+      a.dt ? std::optional<double>(parse_positive("--dt", *a.dt, "a positive number of seconds")) : std::nullopt;
+  if (a.solver && *a.solver != "peridynamics" && *a.solver != "fem_linear" && *a.solver != "fem_corotated")
+    throw UsageError{"--solver expects peridynamics, fem_linear or fem_corotated, got '" + *a.solver + "'"};
   auto sc = perifx::scene::load_scene_file(a.scene);
-  if (a.threads) sc.threads = *a.threads;
+  if (threads) sc.threads = *threads;
   if (a.solver) {
     using perifx::scene::Solver;
     sc.solver = *a.solver == "fem_linear" ? Solver::fem_linear
                 : *a.solver == "fem_corotated" ? Solver::fem_corotated : Solver::peridynamics;
   }
-  if (a.dt) sc.time.dt = *a.dt;
+  if (dt) sc.time.dt = *dt;
   return sc;
 }
 
@@ -191,18 +171,19 @@ bool report_time_step(const perifx::World& world, std::ostream& out) {
 int cmd_info(const Args& a) {
   perifx::World world(load(a));
   const auto mem = world.memory();
-  const auto& st = world.state();
   std::cout << "scene            " << world.scene().name << "\n";
   std::cout << "particles        " << world.particle_count() << "\n";
   std::cout << "bonds            " << world.bond_count() << " directed ("
             << (world.particle_count() ? double(world.bond_count()) / double(world.particle_count()) : 0.0)
             << " per particle)\n";
-  for (const auto& b : st.bodies)
+  for (const auto& b : world.bodies())
     std::cout << "body             " << b.name << ": " << b.particle_count << " particles, lambda " << b.mean_edge_length
               << " m, horizon " << b.horizon << " m\n";
   std::cout << "memory           particles " << human_bytes(double(mem.particle_bytes)) << " ("
             << mem.bytes_per_particle << " B each), bonds " << human_bytes(double(mem.bond_bytes)) << " ("
-            << mem.bytes_per_bond << " B each), mesh " << human_bytes(double(mem.mesh_bytes)) << "\n";
+            << mem.bytes_per_bond << " B each), mesh " << human_bytes(double(mem.mesh_bytes)) << ", contact "
+            << human_bytes(double(mem.contact_bytes)) << ", other " << human_bytes(double(mem.other_bytes))
+            << "; total " << human_bytes(double(mem.total_bytes)) << "\n";
   std::cout << "threads          " << world.threads() << "\n";
   const bool ok = report_time_step(world, std::cout);
   std::cout << "schedule\n" << world.schedule();
@@ -210,6 +191,9 @@ int cmd_info(const Args& a) {
 }
 
 int cmd_run(const Args& a) {
+  const std::optional<std::uint64_t> frames =
+      a.frames ? std::optional<std::uint64_t>(static_cast<std::uint64_t>(parse_count("--frames", *a.frames, 1)))
+               : std::nullopt;
   perifx::World world(load(a));
   const bool tty = ::isatty(STDERR_FILENO) && !a.quiet;
   if (!a.quiet)
@@ -218,7 +202,7 @@ int cmd_run(const Args& a) {
   if (!report_time_step(world, a.quiet ? std::clog : std::cerr)) return kUnstable;
   perifx::RunOptions opt;
   if (a.out) opt.output_directory = *a.out;
-  opt.frames = a.frames;
+  opt.frames = frames;
   auto last_print = std::chrono::steady_clock::now();
   if (!a.quiet)
     opt.on_frame = [&](const perifx::RunProgress& p) {
@@ -249,21 +233,163 @@ int cmd_run(const Args& a) {
   return kOk;
 }
 
+// `perifx render` options: parsed into RenderOptions (text values checked as for the other commands).
+struct RenderArgs {
+  perifx::render::RenderOptions options;
+  std::string run_directory;
+  bool quiet = false;
+  std::optional<std::string> out, width, height, color_by, frames, backend, scene, projectile_radius, particle_scale, draw,
+      threads, view, fit_frames, zoom, cut;
+};
+
+perifx::render::RenderOptions render_options(RenderArgs& r) {
+  using namespace perifx::render;
+  RenderOptions opt = r.options;
+  opt.run_directory = r.run_directory;
+  if (r.out) opt.output_directory = *r.out;
+  if (r.width) opt.width = int(parse_count("--width", *r.width, 16));
+  if (r.height) opt.height = int(parse_count("--height", *r.height, 16));
+  if (r.scene) opt.scene_file = *r.scene;
+  if (r.projectile_radius) opt.projectile_radius = parse_positive("--projectile-radius", *r.projectile_radius);
+  if (r.particle_scale) opt.particle_scale = parse_positive("--particle-scale", *r.particle_scale);
+  if (r.threads) opt.threads = int(parse_count("--threads", *r.threads, 1));
+  if (r.zoom) opt.zoom = parse_positive("--zoom", *r.zoom);
+  if (r.view) {
+    // X,Y,Z: the direction from the subject to the camera (Y up), e.g. 0,0,1 looks along -z.
+    const auto c = parse_numbers("--view", *r.view, 3, "X,Y,Z");
+    opt.view = perifx::Vec3(c[0], c[1], c[2]);
+    if (!(opt.view.norm() > 0)) throw UsageError{"--view needs a non-zero direction"};
+  }
+  if (r.cut) {
+    // NX,NY,NZ,D: hide what lies on the side n·x > D of the plane (n is normalized here).
+    const auto c = parse_numbers("--cut", *r.cut, 4, "NX,NY,NZ,D");
+    const perifx::Vec3 n(c[0], c[1], c[2]);
+    if (!(n.norm() > 0)) throw UsageError{"--cut needs a non-zero normal"};
+    opt.cut = CutPlane{n.normalized(), c[3] / n.norm()};
+  }
+  if (r.draw) {
+    if (*r.draw == "auto") opt.draw = Draw::automatic;
+    else if (*r.draw == "particles") opt.draw = Draw::particles;
+    else if (*r.draw == "surface") opt.draw = Draw::surface;
+    else throw UsageError{"--draw expects auto, particles or surface, got '" + *r.draw + "'"};
+  }
+  if (r.color_by) {
+    if (*r.color_by == "damage") opt.color_by = ColorBy::damage;
+    else if (*r.color_by == "material") opt.color_by = ColorBy::material;
+    else if (*r.color_by == "none") opt.color_by = ColorBy::none;
+    else throw UsageError{"--color-by expects damage, material or none, got '" + *r.color_by + "'"};
+  }
+  if (r.backend) {
+    if (*r.backend == "povray") opt.backend = Backend::povray;
+    else if (*r.backend == "builtin") opt.backend = Backend::builtin;
+    else throw UsageError{"--backend expects povray or builtin, got '" + *r.backend + "'"};
+  }
+  // A:B (inclusive), A: (from A), :B (up to B) or A (just A).
+  auto range = [](const std::string& flag, const std::string& v, std::optional<std::uint64_t>& first,
+                  std::optional<std::uint64_t>& last) {
+    const auto colon = v.find(':');
+    const std::string a = v.substr(0, colon), b = colon == std::string::npos ? a : v.substr(colon + 1);
+    if (!a.empty()) first = std::uint64_t(parse_count(flag, a, 0));
+    if (!b.empty()) last = std::uint64_t(parse_count(flag, b, 0));
+    if (first && last && *last < *first) throw UsageError{flag + " A:B needs A <= B, got '" + v + "'"};
+  };
+  if (r.frames) range("--frames", *r.frames, opt.first_frame, opt.last_frame);
+  if (r.fit_frames) range("--fit-frames", *r.fit_frames, opt.fit_first, opt.fit_last);
+  return opt;
+}
+
+// An option whose text is kept as given (checked later, see Args).
+CLI::Option* text_option(CLI::App* app, const std::string& name, std::optional<std::string>& target,
+                         const std::string& description) {
+  return app->add_option_function<std::string>(name, [&target](const std::string& v) { target = v; }, description);
+}
+
+int run_command(const Args& a) {
+  if (a.command == "run") return cmd_run(a);
+  if (a.command == "compare") return cmd_compare(a);
+  if (a.command == "check") return cmd_check(a);
+  if (a.command == "info") return cmd_info(a);
+  std::cout << perifx::scene::scene_format_markdown();  // spec
+  return kOk;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc >= 2 && std::string(argv[1]) == "render") return perifx::render::render_command(argc, argv);
-  const Args a = parse(argc, argv);
+  CLI::App app{"perifx: peridynamics-based fracture animation of elastoplastic solids", "perifx"};
+  app.set_version_flag("--version", std::string("perifx ") + PERIFX_VERSION);
+  app.require_subcommand(1);
+  app.footer(
+      "exit codes: 0 ok, 1 usage, 2 invalid scene or mesh, 3 output error, 4 unstable time step, 5 internal\n"
+      "Run perifx COMMAND --help for a command's options.");
+  Args a;
+  // Scene overrides shared by run, check and info.
+  auto scene_options = [&a](CLI::App* sub) {
+    sub->add_option("SCENE", a.scene, "scene file (JSON)")->required();
+    text_option(sub, "--threads", a.threads, "worker threads (N >= 1)");
+    text_option(sub, "--solver", a.solver, "peridynamics|fem_linear|fem_corotated (overrides the scene)");
+    text_option(sub, "--dt", a.dt, "time step in seconds (overrides the scene)");
+  };
+  CLI::App* run = app.add_subcommand("run", "simulate and write frames (VTU + PVD for ParaView, PLY for Houdini/Blender)");
+  scene_options(run);
+  text_option(run, "--out", a.out, "output directory (overrides the scene)");
+  text_option(run, "--frames", a.frames, "run this many frames (N >= 1) instead of the scene's duration");
+  run->add_flag("--quiet", a.quiet, "no progress or summary");
+  scene_options(app.add_subcommand("check", "validate the scene without running it"));
+  scene_options(app.add_subcommand("info", "particles, bonds, memory, the stable time step and the task graph"));
+  app.add_subcommand("spec", "print the scene format reference (markdown)");
+  CLI::App* compare = app.add_subcommand(
+      "compare", "position deviation of run B from reference run A per frame, over A's bounding-box diagonal at "
+                 "frame 0 (paper §6); writes RUN_A/compare.csv. Same scene; an FEM run may also be of a finer "
+                 "mesh (interpolated)");
+  compare->add_option("RUN_A", a.scene, "reference run directory")->required();
+  compare->add_option("RUN_B", a.second, "compared run directory")->required();
+
+  RenderArgs r;
+  CLI::App* render = app.add_subcommand(
+      "render", "PNG frames (RUN_DIR/render/frame.NNNN.png; POV-Ray if installed, else built-in) and with --mp4 a "
+                "movie (ffmpeg)");
+  render->add_option("RUN_DIR", r.run_directory, "run directory")->required();
+  text_option(render, "--out", r.out, "output directory (default RUN_DIR/render)");
+  text_option(render, "--width", r.width, "image width (>= 16, default 1280)");
+  text_option(render, "--height", r.height, "image height (>= 16, default 720)");
+  text_option(render, "--color-by", r.color_by, "damage|material|none");
+  text_option(render, "--frames", r.frames, "A:B, A:, :B or A: run frames to render");
+  render->add_flag("--mp4", r.options.mp4, "also encode movie.mp4 with ffmpeg");
+  text_option(render, "--backend", r.backend, "povray|builtin");
+  text_option(render, "--scene", r.scene, "the run's SCENE.json: projectile radii, ground plane");
+  text_option(render, "--projectile-radius", r.projectile_radius, "radius R when projectiles.csv has none");
+  text_option(render, "--particle-scale", r.particle_scale, "sphere radius = S * volume^(1/3)");
+  text_option(render, "--draw", r.draw, "auto|particles|surface: the embedded-mesh surface (crack faces orange) or the particles");
+  text_option(render, "--threads", r.threads, "threads (N >= 1; default all cores)");
+  text_option(render, "--view", r.view, "X,Y,Z: direction from the subject to the camera (default 0.75,0.55,1.3)");
+  text_option(render, "--fit-frames", r.fit_frames, "A:B: frames the camera is framed on");
+  text_option(render, "--zoom", r.zoom, "Z > 1: closer");
+  text_option(render, "--cut", r.cut, "NX,NY,NZ,D: leave out what lies where n·x > D (a cut-away view)");
+  render->add_flag("--quiet", r.quiet, "no progress or summary");
+
+  if (argc == 2 && std::string(argv[1]) == "help") argv[1] = const_cast<char*>("--help");
+  if (argc >= 2 && argv[1][0] != '-' && [&] {
+        for (const CLI::App* sub : app.get_subcommands({})) if (sub->get_name() == argv[1]) return false;
+        return true;
+      }()) {
+    std::cerr << "perifx: unknown command '" << argv[1] << "' (see perifx --help)\n";
+    return kUsage;
+  }
   try {
-    if (a.command == "run") return cmd_run(a);
-    if (a.command == "compare") return cmd_compare(a);
-    if (a.command == "check") return cmd_check(a);
-    if (a.command == "info") return cmd_info(a);
-    if (a.command == "spec") {
-      std::cout << perifx::scene::scene_format_markdown();
-      return kOk;
-    }
-    usage_error("unknown command '" + a.command + "'");
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    std::cerr << "perifx: " << e.what() << " (see perifx --help)\n";
+    return kUsage;
+  }
+  for (CLI::App* sub : app.get_subcommands()) a.command = sub->get_name();
+  try {
+    if (a.command == "render") return perifx::render::render_command(render_options(r), r.quiet);
+    return run_command(a);
+  } catch (const UsageError& e) {
+    std::cerr << "perifx: " << e.message << " (see perifx " << a.command << " --help)\n";
+    return kUsage;
   } catch (const perifx::scene::SceneError& e) {
     std::cerr << "perifx: error: " << e.what() << "\n";
     return kScene;

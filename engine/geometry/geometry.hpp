@@ -1,6 +1,9 @@
 // Tetrahedral meshes for bodies: a built-in structured mesher for primitives, TetGen and Gmsh file
 // input, closed surfaces (OBJ/PLY/STL/OFF) filled with tets by the external `tetgen` program,
 // and the mesh measures the model needs (volumes, mean edge length λ, face adjacency, Morton order).
+// Files: structured.cpp (meshers), mesh_files.cpp (the file readers: engine/io parses, this applies
+// the checks), mesh_checks.* (orientation, compaction, one piece), surface_mesh.cpp (closed-surface
+// checks, the tetgen program call), measures.cpp.
 #pragma once
 #include <array>
 #include <cstdint>

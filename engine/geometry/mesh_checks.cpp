@@ -1,5 +1,5 @@
-// Helpers shared by the mesh file loaders (mesh_text.hpp): whole-file reads, tet orientation,
-// vertex compaction and the one-piece check.
+// Checks shared by the mesh file loaders (mesh_checks.hpp): tet orientation, vertex compaction and
+// the one-piece check.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -11,21 +11,9 @@
 
 #include <Eigen/Geometry>  // cross()
 
-#include "geometry/mesh_text.hpp"
+#include "geometry/mesh_checks.hpp"
 
 namespace perifx::geometry::detail {
-
-std::string read_whole_file(const std::filesystem::path& path, const std::string& kind) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw GeometryError(kind + " file '" + path.string() + "' does not exist");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw GeometryError("cannot open " + kind + " file '" + path.string() + "'");
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw GeometryError("error reading '" + path.string() + "'");
-  return text;
-}
 
 double signed_volume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   return (b - a).dot((c - a).cross(d - a)) / 6.0;

@@ -11,7 +11,7 @@
 #include <Eigen/Geometry>  // cross(); components/math.hpp only brings in Eigen/Core
 
 #include "geometry/geometry.hpp"
-#include "geometry/mesh_text.hpp"
+#include "geometry/mesh_checks.hpp"
 
 namespace perifx::geometry {
 

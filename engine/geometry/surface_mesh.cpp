@@ -20,7 +20,9 @@
 
 #include <Eigen/Geometry>  // cross()
 
-#include "geometry/mesh_text.hpp"
+#include "geometry/mesh_checks.hpp"
+#include "io/atomic.hpp"
+#include "io/tetgen.hpp"
 
 extern char** environ;
 
@@ -124,23 +126,14 @@ std::string run_tetgen(const fs::path& exe, const std::string& switches, const f
   return "unknown wait status " + std::to_string(status);
 }
 
-void write_smesh(const SurfaceMesh& s, const fs::path& file) {
-  std::ofstream out(file);
-  out << std::setprecision(17);
-  out << s.vertices.size() << " 3 0 0\n";
-  for (std::size_t v = 0; v < s.vertices.size(); ++v) {
-    out << v + 1 << ' ' << s.vertices[v].x() << ' ' << s.vertices[v].y() << ' ' << s.vertices[v].z() << '\n';
-  }
-  out << s.triangles.size() << " 0\n";
-  for (const auto& t : s.triangles) out << "3 " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
-  out << "0\n0\n";  // no holes, no regions
-  if (!out) throw GeometryError("cannot write the tetgen input '" + file.string() + "'");
-}
-
 TetMesh tetgen_fill(const SurfaceMesh& s, const fs::path& exe, double max_volume, const std::string& source) {
   TempDir dir;
   const fs::path input = dir.path / "surface.smesh";
-  write_smesh(s, input);
+  try {
+    io::write_tetgen_smesh(input, s.vertices, s.triangles);
+  } catch (const io::IoError& e) {
+    throw GeometryError(std::string("cannot write the tetgen input: ") + e.what());
+  }
   std::ostringstream sw;
   // -p: fill the surface (a piecewise linear complex), q1.414: radius-edge ratio bound, a: volume
   // bound. Not -Q: the progress lines in the log say which stage failed.

@@ -121,7 +121,8 @@ class World {
   std::vector<ProjectileView> projectiles() const;
   ContactCounters contact_counters() const;
   bool has_embedded_mesh() const;   // peridynamics worlds (the FEM solver has no cracking mesh)
-  TetMeshView tet_mesh() const;     // see TetMeshView; current vertex positions
+  TetMeshView tet_mesh() const;       // the cracking mesh, current vertex positions (see TetMeshView)
+  TetMeshView reference_mesh() const; // the mesh as built, before any split, at rest
   SurfaceMesh surface() const;      // boundary triangles of the (split) mesh, with fragment ids
 
   const scene::Scene& scene() const;

@@ -10,6 +10,9 @@
 #include <sstream>
 #include <string>
 
+#include <algorithm>
+#include <nlohmann/json.hpp>
+
 #include "cli_support.hpp"
 
 namespace fs = std::filesystem;
@@ -131,4 +134,39 @@ TEST_CASE("cli: every shipped scene passes check") {
     ++count;
   }
   CHECK(count >= 3);
+}
+
+TEST_CASE("cli: every command has --help (exit 0) and perifx --version prints the project version") {
+  for (const char* command : {"run", "check", "info", "spec", "compare", "render"}) {
+    const auto r = run_cli(std::string(command) + " --help");
+    CHECK_MESSAGE(r.code == 0, command);
+    CHECK_MESSAGE(r.output.find("Usage:") != std::string::npos, r.output);
+  }
+  CHECK(run_cli("--help").code == 0);
+  const auto version = run_cli("--version");
+  CHECK(version.code == 0);
+  CHECK(version.output == std::string("perifx ") + PERIFX_VERSION + "\n");
+}
+
+TEST_CASE("cli: usage errors are one line on stderr with exit code 1") {
+  for (const char* args : {"", "bogus", "run", "run x.json --frames 0", "run x.json --solver magic", "run x.json --nope",
+                           "compare only_one", "render"}) {
+    const auto r = run_cli(args);
+    CHECK_MESSAGE(r.code == 1, args);
+    CHECK_MESSAGE(std::count(r.output.begin(), r.output.end(), '\n') == 1, r.output);
+    CHECK_MESSAGE(r.output.rfind("perifx: ", 0) == 0, r.output);
+  }
+}
+
+TEST_CASE("cli: summary.json is valid JSON for a scene name with quotes and backslashes") {
+  const fs::path dir = temp_dir("summary");
+  std::string text = kScene;
+  text.insert(text.find('{') + 1, R"( "name": "a \"quoted\" \\ name",)");
+  const fs::path scene = write(dir, "scene.json", text);
+  const auto r = run_cli("run " + scene.string() + " --quiet --frames 1 --out " + (dir / "out").string());
+  REQUIRE_MESSAGE(r.code == 0, r.output);
+  const auto summary = nlohmann::json::parse(slurp(dir / "out" / "summary.json"));
+  CHECK(summary.at("scene").get<std::string>() == "a \"quoted\" \\ name");
+  CHECK(summary.at("frames").get<int>() == 1);
+  fs::remove_all(dir);
 }

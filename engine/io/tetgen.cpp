@@ -1,29 +1,28 @@
-// TetGen .node/.ele input. Errors name the file and line so a user can fix a hand-edited or truncated
-// file without a debugger.
-#include <charconv>
-#include <cmath>
-#include <cstdint>
-#include <fstream>
-#include <iterator>
+// TetGen files (see tetgen.hpp). Errors name the file and line so a user can fix a hand-edited or
+// truncated file without a debugger.
+#include "io/tetgen.hpp"
+
+#include <iomanip>
 #include <sstream>
 #include <string>
 #include <string_view>
 #include <system_error>
 #include <vector>
 
-#include <Eigen/Geometry>  // cross(); components/math.hpp only brings in Eigen/Core
+#include "io/atomic.hpp"
+#include "io/text.hpp"
 
-#include "geometry/mesh_text.hpp"
+namespace perifx::io {
 
-namespace perifx::geometry {
+namespace fs = std::filesystem;
 
 namespace {
 
 using detail::TokenLines;
 
 // The .ele beside a .node: "mesh.1.node" -> "mesh.1.ele".
-std::filesystem::path ele_path_for(const std::filesystem::path& node_file) {
-  std::filesystem::path ele = node_file;
+fs::path ele_path_for(const fs::path& node_file) {
+  fs::path ele = node_file;
   if (ele.extension() == ".node") {
     ele.replace_extension(".ele");
   } else {
@@ -34,18 +33,18 @@ std::filesystem::path ele_path_for(const std::filesystem::path& node_file) {
 
 }  // namespace
 
-TetMesh read_tetgen(const std::filesystem::path& node_file) {
+TetFile read_tetgen(const fs::path& node_file) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(node_file, ec)) {
-    throw GeometryError("TetGen node file '" + node_file.string() + "' does not exist");
+  if (!fs::is_regular_file(node_file, ec)) {
+    throw ReadError("TetGen node file '" + node_file.string() + "' does not exist");
   }
-  const std::filesystem::path ele_file = ele_path_for(node_file);
-  if (!std::filesystem::is_regular_file(ele_file, ec)) {
-    throw GeometryError("TetGen element file '" + ele_file.string() + "' (expected beside '" +
+  const fs::path ele_file = ele_path_for(node_file);
+  if (!fs::is_regular_file(ele_file, ec)) {
+    throw ReadError("TetGen element file '" + ele_file.string() + "' (expected beside '" +
                         node_file.string() + "') does not exist");
   }
 
-  TetMesh mesh;
+  TetFile mesh;
   std::vector<std::string_view> tok;
 
   // --- .node: header "<#points> <dim> <#attributes> <#boundary markers>" ---
@@ -91,6 +90,10 @@ TetMesh read_tetgen(const std::filesystem::path& node_file) {
     ele.fail("nodes per tet is " + std::to_string(per_tet) + "; expected 4 or 10");
   }
   mesh.tets.resize(static_cast<std::size_t>(ntets));
+  mesh.tet_line.resize(mesh.tets.size());
+  mesh.tet_id.resize(mesh.tets.size());
+  mesh.tet_word = "tet";
+  mesh.tet_source = ele_file.string();
   for (long long k = 0; k < ntets; ++k) {
     if (!ele.next(tok)) {
       ele.fail_truncated("expected " + std::to_string(ntets) + " tets, found " + std::to_string(k));
@@ -100,7 +103,6 @@ TetMesh read_tetgen(const std::filesystem::path& node_file) {
                std::to_string(tok.size()) + " fields");
     }
     const std::string_view tet_index = tok[0];
-    ele.integer(tet_index, "tet index");
     std::array<std::uint32_t, 4> tet{};
     // Only the corners: the 6 mid-edge nodes of a quadratic tet are not used by the model.
     for (std::size_t i = 0; i < 4; ++i) {
@@ -112,18 +114,26 @@ TetMesh read_tetgen(const std::filesystem::path& node_file) {
       tet[i] = static_cast<std::uint32_t>(v);
     }
 
-    double volume = 0.0, mean_edge = 0.0;
-    // TetGen writes positive tets, but other writers use the opposite convention; flipping is lossless.
-    if (!detail::orient_tet(mesh.vertices, tet, volume, mean_edge)) {
-      std::ostringstream msg;
-      msg << "tet " << tet_index << " is degenerate (volume " << volume << ", mean edge " << mean_edge << ")";
-      ele.fail(msg.str());
-    }
+    mesh.tet_line[static_cast<std::size_t>(k)] = ele.line();
+    mesh.tet_id[static_cast<std::size_t>(k)] = ele.integer(tet_index, "tet index");
     mesh.tets[static_cast<std::size_t>(k)] = tet;
   }
   // A .face/.edge/.neigh beside the .node (TetGen writes them) is not needed and is ignored.
-  detail::require_one_piece(mesh, ele_file.string());
   return mesh;
 }
 
-}  // namespace perifx::geometry
+void write_tetgen_smesh(const fs::path& target, const std::vector<Vec3>& vertices,
+                        const std::vector<std::array<std::uint32_t, 3>>& triangles) {
+  std::ostringstream out;
+  out << std::setprecision(17);
+  out << vertices.size() << " 3 0 0\n";
+  for (std::size_t v = 0; v < vertices.size(); ++v)
+    out << v + 1 << ' ' << vertices[v].x() << ' ' << vertices[v].y() << ' ' << vertices[v].z() << '\n';
+  out << triangles.size() << " 0\n";
+  for (const auto& t : triangles) out << "3 " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
+  out << "0\n0\n";  // no holes, no regions
+  const std::string text = out.str();
+  write_atomic(target, [&](std::ostream& os) { os.write(text.data(), static_cast<std::streamsize>(text.size())); });
+}
+
+}  // namespace perifx::io

@@ -1,5 +1,5 @@
-// Internal to engine/geometry: the line/token reader shared by the mesh file loaders, and small
-// mesh checks they all apply. Errors are GeometryError "file:line: message".
+// Internal to engine/io: the line/token reader the text format readers share (TetGen, Gmsh, OBJ,
+// OFF, ASCII PLY and STL). Errors are ReadError "file:line: message".
 #pragma once
 #include <charconv>
 #include <cmath>
@@ -9,19 +9,16 @@
 #include <system_error>
 #include <vector>
 
-#include "geometry/geometry.hpp"
+#include "io/atomic.hpp"
 
-namespace perifx::geometry::detail {
-
-// The whole text of a file (binary-safe). `kind` names the file in messages ("Gmsh mesh").
-std::string read_whole_file(const std::filesystem::path& path, const std::string& kind);
+namespace perifx::io::detail {
 
 // Walks a file's text line by line, yielding the whitespace-separated tokens of each non-empty line.
 // `comment` (when not '\0') starts a comment that runs to the end of the line.
 class TokenLines {
  public:
   TokenLines(const std::filesystem::path& path, const std::string& kind, char comment = '#')
-      : name_(path.string()), text_(read_whole_file(path, kind)), comment_(comment) {}
+      : name_(path.string()), text_(read_file(path, kind)), comment_(comment) {}
   // Over text already in memory, starting at byte `offset`, which is just after line `lines_before`.
   TokenLines(std::string name, std::string text, std::size_t offset, std::size_t lines_before, char comment)
       : name_(std::move(name)), text_(std::move(text)), pos_(offset), line_(lines_before), comment_(comment) {}
@@ -53,10 +50,10 @@ class TokenLines {
 
   // "file:line: message" for the line last returned by next().
   [[noreturn]] void fail(const std::string& message) const {
-    throw GeometryError(name_ + ":" + std::to_string(line_) + ": " + message);
+    throw ReadError(name_ + ":" + std::to_string(line_) + ": " + message);
   }
   [[noreturn]] void fail_truncated(const std::string& what) const {
-    throw GeometryError(name_ + ":" + std::to_string(line_) + ": file is truncated: " + what);
+    throw ReadError(name_ + ":" + std::to_string(line_) + ": file is truncated: " + what);
   }
 
   long long integer(std::string_view token, const char* what) const {
@@ -95,16 +92,4 @@ class TokenLines {
   char comment_ = '#';
 };
 
-// Signed volume of the tet (a, b, c, d), > 0 when positively oriented.
-double signed_volume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
-// Orients a tet read from a file: flips negative ones, and returns false for a degenerate one (volume
-// ≤ 1e-12 of its mean edge cubed); `volume` and `mean_edge` are set for the caller's message.
-bool orient_tet(const std::vector<Vec3>& vertices, std::array<std::uint32_t, 4>& tet, double& volume,
-                double& mean_edge);
-// Drops vertices no tet uses (keeping the order of the rest) and renumbers the tets.
-void compact_vertices(TetMesh& mesh);
-// Throws "<source>: mesh has K disconnected pieces ..." when the tets form more than one group
-// linked by shared vertices (also rejects non-manifold faces, via face_neighbors).
-void require_one_piece(const TetMesh& mesh, const std::string& source);
-
-}  // namespace perifx::geometry::detail
+}  // namespace perifx::io::detail

@@ -10,7 +10,7 @@
 //   weights and are compared by motion: their frame-0 offset is subtracted). Needs an FEM run on
 //   one side (A preferred); two PD runs of different meshes are refused.
 // Each run directory has particles.pvd + particles.NNNN.vtu (runner) and mesh.json (written by
-// write_run_mesh at the start of a run).
+// io::write_run_mesh at the start of a run); both are read through io/run_dir.hpp.
 #pragma once
 #include <filesystem>
 #include <stdexcept>
@@ -18,8 +18,6 @@
 #include <vector>
 
 namespace perifx {
-
-struct WorldState;
 
 class CompareError : public std::runtime_error {
  public:
@@ -40,10 +38,6 @@ struct CompareResult {
   double max_error = 0.0, mean_error = 0.0;  // over all frames and points
   std::size_t frames_a = 0, frames_b = 0;    // frames in each series (compared: the common prefix)
 };
-
-// Writes <dir>/mesh.json: solver, what the particles are, counts, a hash of the tet connectivity
-// and, for FEM runs, the tets themselves (vertex = particle indices).
-void write_run_mesh(const WorldState& world, const std::filesystem::path& directory);
 
 // Compares run B against reference run A. Throws CompareError with a clear message when a run
 // cannot be read or the runs do not describe the same mesh / frame times.

@@ -7,7 +7,7 @@
 #include <cstdio>
 #include <map>
 
-#include "render/render.hpp"
+#include "tools/render/render.hpp"
 
 namespace perifx::render {
 namespace {

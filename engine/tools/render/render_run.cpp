@@ -1,7 +1,7 @@
 // `perifx render` orchestration (see render_run.hpp): scan the run, frame the camera once for the
 // whole sequence, build each frame's scene, render it with POV-Ray (as a program) or the built-in
 // rasterizer, write frame.NNNN.png, and optionally encode movie.mp4 with ffmpeg.
-#include "render/render_run.hpp"
+#include "tools/render/render_run.hpp"
 
 #include <fcntl.h>
 #include <sys/wait.h>
@@ -19,8 +19,8 @@
 
 #include <tbb/task_arena.h>
 
-#include "io/io.hpp"
-#include "render/png.hpp"
+#include "io/atomic.hpp"
+#include "tools/render/png.hpp"
 #include "perifx/scene.hpp"
 
 namespace perifx::render {
@@ -178,14 +178,14 @@ RenderSummary render_run(const RenderOptions& opt) {
     if (opt.on_note) opt.on_note(text);
   };
   if (opt.width < 16 || opt.height < 16) throw std::invalid_argument("image size must be at least 16x16");
-  const RunDirectory run = scan_run_directory(opt.run_directory);
+  const RunDirectory run = io::scan_run_directory(opt.run_directory);
 
   std::vector<FrameFiles> frames;
   for (const auto& f : run.frames)
     if ((!opt.first_frame || f.index >= *opt.first_frame) && (!opt.last_frame || f.index <= *opt.last_frame))
       frames.push_back(f);
   if (frames.empty())
-    throw RunDataError("no frames of '" + run.path.string() + "' are in the requested range (it has frames " +
+    throw RunDirError("no frames of '" + run.path.string() + "' are in the requested range (it has frames " +
                        std::to_string(run.frames.front().index) + " to " + std::to_string(run.frames.back().index) + ")");
 
   RenderSummary summary;
@@ -216,17 +216,17 @@ RenderSummary render_run(const RenderOptions& opt) {
   const bool any_particles =
       std::any_of(frames.begin(), frames.end(), [](const FrameFiles& f) { return !f.particles.empty(); });
   if (opt.draw == Draw::surface && !any_surface)
-    throw RunDataError("--draw surface: '" + run.path.string() +
+    throw RunDirError("--draw surface: '" + run.path.string() +
                        "' has no surface.NNNN.ply/.obj frames in the range (add \"surface_ply\" or \"obj\" to "
                        "the scene's output.formats)");
   if (opt.draw == Draw::particles && !any_particles)
-    throw RunDataError("--draw particles: '" + run.path.string() + "' has no particles.NNNN.vtu/.ply frames in the range");
+    throw RunDirError("--draw particles: '" + run.path.string() + "' has no particles.NNNN.vtu/.ply frames in the range");
   bool draw_surface = opt.draw == Draw::surface;
   if (opt.draw == Draw::automatic && any_surface) {
     draw_surface = true;
     if (opt.color_by == ColorBy::damage && any_particles) {
       const auto first = std::find_if(frames.begin(), frames.end(), [](const FrameFiles& f) { return !f.surface.empty(); });
-      const SurfaceFrame probe = read_surface(first->surface);
+      const SurfaceFrame probe = io::read_surface_frame(first->surface);
       if (probe.damage.size() != probe.vertex.size()) {
         draw_surface = false;
         note("--color-by damage: the surface files have no damage, drawing the particles (--draw surface to keep the "
@@ -251,7 +251,7 @@ RenderSummary render_run(const RenderOptions& opt) {
     for (const auto& f : run.frames)
       if ((!opt.fit_first || f.index >= *opt.fit_first) && (!opt.fit_last || f.index <= *opt.fit_last)) fit.push_back(f);
     if (fit.empty())
-      throw RunDataError("no frames of '" + run.path.string() + "' are in the --fit-frames range (it has frames " +
+      throw RunDirError("no frames of '" + run.path.string() + "' are in the --fit-frames range (it has frames " +
                          std::to_string(run.frames.front().index) + " to " + std::to_string(run.frames.back().index) + ")");
   }
   Bounds bounds;
@@ -262,12 +262,12 @@ RenderSummary render_run(const RenderOptions& opt) {
     const std::size_t k = samples == 1 ? 0 : s * (fit.size() - 1) / (samples - 1);
     const FrameFiles& f = fit[k];
     if (use_surface(f)) {
-      const auto surf = read_surface(f.surface);
+      const auto surf = io::read_surface_frame(f.surface);
       Bounds b;
       b.add_trimmed(surf.vertex, {}, kFramingTrim);
       if (b.valid()) bounds.add(b.lo, 0.0), bounds.add(b.hi, 0.0), ground = std::min(ground, b.lo.y());
     } else if (!f.particles.empty()) {
-      const auto p = read_particles(f.particles);
+      const auto p = io::read_particle_frame(f.particles);
       if (p.volume.size() != p.position.size() && !p.position.empty() && s == 0) {
         Bounds b;
         for (const auto& x : p.position) b.add(x, 0.0);
@@ -281,12 +281,12 @@ RenderSummary render_run(const RenderOptions& opt) {
       b.add_trimmed(p.position, radius, kFramingTrim);
       if (b.valid()) bounds.add(b.lo, 0.0), bounds.add(b.hi, 0.0), ground = std::min(ground, b.lo.y());
     }
-    for (const auto& pr : projectiles_at(run, f)) {
+    for (const auto& pr : io::projectiles_at(run, f)) {
       if (pr.radius <= 0 && pr.id >= scene_radii.size()) need_projectile_radius = true;
       bounds.add(pr.center, 0.0);
     }
   }
-  if (!bounds.valid()) throw RunDataError("the frames of '" + run.path.string() + "' hold no particles or triangles");
+  if (!bounds.valid()) throw RunDirError("the frames of '" + run.path.string() + "' hold no particles or triangles");
   const double diag = std::max((bounds.hi - bounds.lo).norm(), 1e-6);
   style.projectile_radius = opt.projectile_radius ? *opt.projectile_radius : 0.08 * diag;
   if (need_projectile_radius && !opt.projectile_radius)
@@ -295,7 +295,7 @@ RenderSummary render_run(const RenderOptions& opt) {
   // Projectile extents at the sampled frames (their radius is known now).
   for (std::size_t s = 0; s < samples; ++s) {
     const std::size_t k = samples == 1 ? 0 : s * (fit.size() - 1) / (samples - 1);
-    for (const auto& pr : projectiles_at(run, fit[k])) {
+    for (const auto& pr : io::projectiles_at(run, fit[k])) {
       const double r = pr.radius > 0 ? pr.radius : pr.id < scene_radii.size() ? scene_radii[pr.id] : style.projectile_radius;
       bounds.add(pr.center, r);
       ground = std::min(ground, pr.center.y() - r);
@@ -306,7 +306,7 @@ RenderSummary render_run(const RenderOptions& opt) {
     // Damage colours only say something once something is damaged: look at the last rendered frame.
     bool damaged = false;
     if (!frames.back().particles.empty()) {
-      const auto last = read_particles(frames.back().particles);
+      const auto last = io::read_particle_frame(frames.back().particles);
       damaged = std::any_of(last.damage.begin(), last.damage.end(), [](double d) { return d > 0.0; });
     }
     color_by = damaged ? ColorBy::damage : ColorBy::material;
@@ -342,9 +342,9 @@ RenderSummary render_run(const RenderOptions& opt) {
     const FrameFiles& f = frames[k];
     std::optional<ParticleFrame> particles;
     std::optional<SurfaceFrame> surface;
-    if (use_surface(f)) surface = read_surface(f.surface);
-    else particles = read_particles(f.particles);
-    auto projectiles = projectiles_at(run, f);
+    if (use_surface(f)) surface = io::read_surface_frame(f.surface);
+    else particles = io::read_particle_frame(f.particles);
+    auto projectiles = io::projectiles_at(run, f);
     for (auto& pr : projectiles)
       if (pr.radius <= 0 && pr.id < scene_radii.size()) pr.radius = scene_radii[pr.id];
     RenderScene scene = frame_scene(particles ? &*particles : nullptr, surface ? &*surface : nullptr, projectiles, style);

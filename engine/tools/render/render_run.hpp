@@ -8,10 +8,18 @@
 #include <string>
 #include <vector>
 
-#include "render/render.hpp"
-#include "render/run_data.hpp"
+#include "tools/render/render.hpp"
+#include "io/run_dir.hpp"
 
 namespace perifx::render {
+
+// The run directory is read through engine/io (the reader `perifx compare` uses too).
+using io::FrameFiles;
+using io::ParticleFrame;
+using io::ProjectileState;
+using io::RunDirectory;
+using io::RunDirError;
+using io::SurfaceFrame;
 
 enum class Backend { automatic, povray, builtin };
 // automatic: damage when a particle of the last rendered frame is damaged, else material.
@@ -60,7 +68,7 @@ struct RenderSummary {
   std::optional<std::filesystem::path> movie;
 };
 
-// Throws RunDataError (bad run directory or frame files), io::IoError (cannot write),
+// Throws io::RunDirError (bad run directory or frame files), io::IoError (cannot write),
 // std::runtime_error (a backend program failed; the message carries the end of its log).
 RenderSummary render_run(const RenderOptions& options);
 

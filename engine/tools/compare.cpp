@@ -1,4 +1,5 @@
-#include "compare.hpp"
+// `perifx compare` (see compare.hpp): reads both runs through io/run_dir and measures the deviation.
+#include "tools/compare.hpp"
 
 #include <Eigen/LU>
 #include <algorithm>
@@ -8,135 +9,44 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
-#include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "io/io.hpp"
-#include "components/world_state.hpp"
+#include "components/math.hpp"
+#include "io/atomic.hpp"
+#include "io/run_dir.hpp"
 
 namespace perifx {
 namespace fs = std::filesystem;
 namespace {
 
-const char* solver_name(scene::Solver s) {
-  switch (s) {
-    case scene::Solver::peridynamics: return "peridynamics";
-    case scene::Solver::fem_linear: return "fem_linear";
-    case scene::Solver::fem_corotated: return "fem_corotated";
+// Run-directory reads with compare's error type (the message names the file either way).
+template <class Read>
+auto reading(Read&& read) {
+  try {
+    return read();
+  } catch (const io::RunDirError& e) {
+    throw CompareError(e.what());
   }
-  return "?";
 }
 
-std::string tet_hash(const std::vector<std::array<std::uint32_t, 4>>& tets, std::size_t vertices) {
-  std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a 64
-  auto mix = [&h](std::uint64_t word) {
-    for (int b = 0; b < 8; ++b) h = (h ^ ((word >> (8 * b)) & 0xffu)) * 0x100000001b3ull;
-  };
-  mix(vertices);
-  mix(tets.size());
-  for (const auto& t : tets)
-    for (auto v : t) mix(v);
-  char buf[20];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
-  return buf;
-}
-
-std::string read_text(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw CompareError("cannot read " + file.string());
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// Value of attribute `name` inside the tag text `tag` ("" when absent).
-std::string attribute(const std::string& tag, const std::string& name) {
-  const std::string key = " " + name + "=\"";
-  const auto at = tag.find(key);
-  if (at == std::string::npos) return "";
-  const auto start = at + key.size();
-  const auto end = tag.find('"', start);
-  return end == std::string::npos ? "" : tag.substr(start, end - start);
-}
+using io::RunMesh;
 
 struct Series {
   std::vector<double> times;
   std::vector<fs::path> files;
 };
 
-Series read_pvd(const fs::path& dir) {
-  const fs::path pvd = dir / "particles.pvd";
-  if (!fs::exists(pvd)) throw CompareError(dir.string() + ": not a run directory (no particles.pvd)");
-  const std::string text = read_text(pvd);
+Series read_series(const fs::path& dir) {
   Series s;
-  for (std::size_t pos = text.find("<DataSet"); pos != std::string::npos; pos = text.find("<DataSet", pos + 1)) {
-    const std::string tag = text.substr(pos, text.find('>', pos) - pos);
-    const std::string t = attribute(tag, "timestep"), f = attribute(tag, "file");
-    if (t.empty() || f.empty()) throw CompareError(pvd.string() + ": malformed DataSet entry");
-    s.times.push_back(std::stod(t));
-    s.files.push_back(dir / f);
+  for (const auto& f : reading([&] { return io::particle_series(dir); })) {
+    s.times.push_back(f.time);
+    s.files.push_back(f.file);
   }
-  if (s.files.empty()) throw CompareError(pvd.string() + ": no frames");
   return s;
 }
 
-// The point coordinates of a perifx particle VTU (binary appended raw, Float64 points, UInt64 headers).
 std::vector<Vec3> read_vtu_points(const fs::path& file) {
-  const std::string text = read_text(file);
-  auto fail = [&](const std::string& why) -> CompareError { return CompareError(file.string() + ": " + why); };
-  const auto piece = text.find("<Piece");
-  if (piece == std::string::npos) throw fail("no <Piece> (not a perifx particle VTU)");
-  const std::string piece_tag = text.substr(piece, text.find('>', piece) - piece);
-  const std::size_t n = std::stoull(attribute(piece_tag, "NumberOfPoints"));
-  const auto points = text.find("<Points>");
-  const auto array = text.find("<DataArray", points);
-  if (points == std::string::npos || array == std::string::npos) throw fail("no <Points> array");
-  const std::string tag = text.substr(array, text.find('>', array) - array);
-  if (attribute(tag, "type") != "Float64" || attribute(tag, "format") != "appended")
-    throw fail("points are not Float64 appended data");
-  if (text.find("header_type=\"UInt64\"") == std::string::npos) throw fail("expected header_type UInt64");
-  const auto appended = text.find("<AppendedData");
-  const auto marker = text.find('_', appended);
-  if (appended == std::string::npos || marker == std::string::npos) throw fail("no appended data");
-  const std::size_t at = marker + 1 + std::stoull(attribute(tag, "offset"));
-  std::uint64_t bytes = 0;
-  if (at + sizeof bytes > text.size()) throw fail("truncated");
-  std::memcpy(&bytes, text.data() + at, sizeof bytes);
-  if (bytes != n * 3 * sizeof(double) || at + sizeof bytes + bytes > text.size()) throw fail("points block has the wrong size");
-  std::vector<Vec3> out(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    double xyz[3];
-    std::memcpy(xyz, text.data() + at + sizeof bytes + 24 * i, sizeof xyz);
-    out[i] = Vec3(xyz[0], xyz[1], xyz[2]);
-  }
-  return out;
-}
-
-struct RunMesh {
-  bool present = false;
-  std::string solver = "unknown", hash;
-  bool vertices_are_particles = false;
-  std::size_t particles = 0, tet_count = 0;
-  std::vector<std::array<std::uint32_t, 4>> tets;
-};
-
-RunMesh read_mesh(const fs::path& dir) {
-  RunMesh m;
-  const fs::path file = dir / "mesh.json";
-  if (!fs::exists(file)) return m;
-  try {
-    const auto j = nlohmann::json::parse(read_text(file));
-    m.present = true;
-    m.solver = j.at("solver").get<std::string>();
-    m.vertices_are_particles = j.at("particles_are").get<std::string>() == "mesh_vertices";
-    m.particles = j.at("particles").get<std::size_t>();
-    m.tet_count = j.at("tet_count").get<std::size_t>();
-    m.hash = j.at("tet_hash").get<std::string>();
-    if (j.contains("tets")) m.tets = j["tets"].get<std::vector<std::array<std::uint32_t, 4>>>();
-  } catch (const nlohmann::json::exception& e) {
-    throw CompareError(file.string() + ": " + e.what());
-  }
-  return m;
+  return reading([&] { return io::read_particle_frame(file); }).position;
 }
 
 double diagonal_of(const std::vector<Vec3>& pts) {
@@ -255,32 +165,10 @@ std::vector<Vec3> interpolate(const std::vector<Vec3>& vertices, const Embedding
 
 }  // namespace
 
-void write_run_mesh(const WorldState& w, const fs::path& directory) {
-  const bool fem = w.settings.solver != scene::Solver::peridynamics;
-  std::string text = "{\n  \"solver\": \"";
-  text += solver_name(w.settings.solver);
-  text += "\",\n  \"particles_are\": \"";
-  text += fem ? "mesh_vertices" : "tet_barycenters";
-  text += "\",\n  \"particles\": " + std::to_string(w.particles.count());
-  text += ",\n  \"vertices\": " + std::to_string(w.mesh.vertices.size());
-  text += ",\n  \"tet_count\": " + std::to_string(w.mesh.tets.size());
-  text += ",\n  \"tet_hash\": \"" + tet_hash(w.mesh.tets, w.mesh.vertices.size()) + "\"";
-  if (fem) {  // the connectivity that maps vertices back to the PD particles (tet barycenters)
-    text += ",\n  \"tets\": [";
-    for (std::size_t t = 0; t < w.mesh.tets.size(); ++t) {
-      const auto& v = w.mesh.tets[t];
-      text += (t ? ",\n    [" : "\n    [") + std::to_string(v[0]) + "," + std::to_string(v[1]) + "," +
-              std::to_string(v[2]) + "," + std::to_string(v[3]) + "]";
-    }
-    text += "\n  ]";
-  }
-  text += "\n}\n";
-  io::write_atomic(directory / "mesh.json", [&](std::ostream& out) { out << text; });
-}
-
 CompareResult compare_runs(const fs::path& dir_a, const fs::path& dir_b) {
-  const Series sa = read_pvd(dir_a), sb = read_pvd(dir_b);
-  const RunMesh ma = read_mesh(dir_a), mb = read_mesh(dir_b);
+  const Series sa = read_series(dir_a), sb = read_series(dir_b);
+  const RunMesh ma = reading([&] { return io::read_run_mesh(dir_a); });
+  const RunMesh mb = reading([&] { return io::read_run_mesh(dir_b); });
   CompareResult r;
   r.solver_a = ma.solver;
   r.solver_b = mb.solver;

@@ -13,7 +13,7 @@
 #include <cmath>
 #include <limits>
 
-#include "render/render.hpp"
+#include "tools/render/render.hpp"
 
 namespace perifx::render {
 namespace {

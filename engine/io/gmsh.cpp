@@ -1,15 +1,15 @@
-// Gmsh .msh input, ASCII formats 2.2 and 4.1. Only tetrahedra matter to the model; every other
-// element type, and every section other than the format, nodes and elements, is skipped.
+// Gmsh .msh input, ASCII formats 2.2 and 4.1 (see gmsh.hpp). Only tetrahedra matter to the model;
+// every other element type, and every section other than the format, nodes and elements, is skipped.
 #include <cstdint>
-#include <sstream>
 #include <string>
 #include <string_view>
 #include <unordered_map>
 #include <vector>
 
-#include "geometry/mesh_text.hpp"
+#include "io/gmsh.hpp"
+#include "io/text.hpp"
 
-namespace perifx::geometry {
+namespace perifx::io {
 
 namespace {
 
@@ -28,7 +28,7 @@ class GmshReader {
  public:
   explicit GmshReader(const std::filesystem::path& file) : in_(file, "Gmsh mesh", '\0') {}
 
-  TetMesh read() {
+  TetFile read() {
     while (in_.next(tok_)) {
       const std::string_view head = tok_[0];
       if (head == "$MeshFormat") {
@@ -197,16 +197,18 @@ class GmshReader {
   }
 
   [[noreturn]] void fail_at(std::size_t line, const std::string& message) const {
-    throw GeometryError(in_.name() + ":" + std::to_string(line) + ": " + message);
+    throw ReadError(in_.name() + ":" + std::to_string(line) + ": " + message);
   }
 
-  TetMesh build() {
+  TetFile build() {
     if (tets_.empty()) {
-      throw GeometryError(in_.name() + ": no tetrahedra (element type 4) in the file; mesh the volume "
+      throw ReadError(in_.name() + ": no tetrahedra (element type 4) in the file; mesh the volume "
                           "(Gmsh: Mesh > 3D, or gmsh -3) before saving");
     }
-    TetMesh mesh;
+    TetFile mesh;
     mesh.vertices = std::move(vertices_);
+    mesh.tet_word = "tetrahedron";
+    mesh.tet_source = in_.name();
     mesh.tets.reserve(tets_.size());
     for (const PendingTet& p : tets_) {
       std::array<std::uint32_t, 4> tet{};
@@ -218,16 +220,10 @@ class GmshReader {
         }
         tet[i] = it->second;
       }
-      double volume = 0.0, mean_edge = 0.0;
-      if (!detail::orient_tet(mesh.vertices, tet, volume, mean_edge)) {
-        std::ostringstream msg;
-        msg << "tetrahedron " << p.element << " is degenerate (volume " << volume << ", mean edge " << mean_edge << ")";
-        fail_at(p.line, msg.str());
-      }
       mesh.tets.push_back(tet);
+      mesh.tet_line.push_back(p.line);
+      mesh.tet_id.push_back(p.element);
     }
-    detail::compact_vertices(mesh);
-    detail::require_one_piece(mesh, in_.name());
     return mesh;
   }
 
@@ -241,6 +237,6 @@ class GmshReader {
 
 }  // namespace
 
-TetMesh read_gmsh(const std::filesystem::path& file) { return GmshReader(file).read(); }
+TetFile read_gmsh(const std::filesystem::path& file) { return GmshReader(file).read(); }
 
-}  // namespace perifx::geometry
+}  // namespace perifx::io

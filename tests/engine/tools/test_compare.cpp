@@ -6,7 +6,7 @@
 
 #include <filesystem>
 
-#include "compare.hpp"
+#include "tools/compare.hpp"
 #include "runner.hpp"
 #include "support.hpp"
 

@@ -1,4 +1,4 @@
-// perifx render: PNG encoder (decoded back by a small inflate written here), the built-in
+// perifx render: PNG encoder (decoded back with libpng's reader), the built-in
 // rasterizer, camera framing, the run-directory readers and `perifx render` end to end (built-in
 // backend, so it runs without povray; the POV-Ray case skips when povray is not installed).
 #include <doctest/doctest.h>
@@ -13,12 +13,17 @@
 #include <sstream>
 #include <string>
 
+#include <png.h>
+
 #include "cli_support.hpp"
-#include "io/io.hpp"
-#include "render/png.hpp"
-#include "render/render.hpp"
-#include "render/render_run.hpp"
-#include "render/run_data.hpp"
+#include "io/atomic.hpp"
+#include "io/obj.hpp"
+#include "io/ply.hpp"
+#include "io/vtk.hpp"
+#include "tools/render/png.hpp"
+#include "tools/render/render.hpp"
+#include "tools/render/render_run.hpp"
+#include "io/run_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace perifx;
@@ -38,123 +43,28 @@ std::uint32_t be32(const std::string& s, std::size_t at) {
          std::uint32_t(std::uint8_t(s[at + 2])) << 8 | std::uint32_t(std::uint8_t(s[at + 3]));
 }
 
-// Inflate for stored and fixed-Huffman blocks (what the encoder emits), RFC 1951.
-struct Inflater {
-  const std::string& in;
-  std::size_t bitpos = 0;
-  std::uint32_t bits(int n) {
-    std::uint32_t v = 0;
-    for (int i = 0; i < n; ++i, ++bitpos) v |= std::uint32_t((std::uint8_t(in.at(bitpos / 8)) >> (bitpos % 8)) & 1u) << i;
-    return v;
-  }
-  std::uint32_t huff(int n) {  // n bits, MSB first
-    std::uint32_t v = 0;
-    for (int i = 0; i < n; ++i) v = (v << 1) | bits(1);
-    return v;
-  }
-  int literal() {
-    std::uint32_t c = huff(7);
-    if (c <= 0x17) return int(c) + 256;
-    c = (c << 1) | bits(1);
-    if (c >= 0x30 && c <= 0xBF) return int(c - 0x30);
-    if (c >= 0xC0 && c <= 0xC7) return int(c - 0xC0) + 280;
-    c = (c << 1) | bits(1);
-    return int(c - 0x190) + 144;
-  }
-  std::string run() {
-    static const int lbase[] = {3, 4, 5, 6, 7, 8, 9, 10, 11, 13, 15, 17, 19, 23, 27, 31, 35, 43, 51, 59, 67, 83, 99, 115, 131, 163, 195, 227, 258};
-    static const int lext[] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 0};
-    static const int dbase[] = {1, 2, 3, 4, 5, 7, 9, 13, 17, 25, 33, 49, 65, 97, 129, 193, 257, 385, 513, 769, 1025, 1537, 2049, 3073, 4097, 6145, 8193, 12289, 16385, 24577};
-    static const int dext[] = {0, 0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12, 12, 13, 13};
-    std::string out;
-    bool last = false;
-    while (!last) {
-      last = bits(1) != 0;
-      const auto type = bits(2);
-      if (type == 0) {
-        bitpos = (bitpos + 7) / 8 * 8;
-        const std::uint32_t len = bits(16);
-        bits(16);
-        out += in.substr(bitpos / 8, len);
-        bitpos += 8 * std::size_t(len);
-        continue;
-      }
-      REQUIRE(type == 1);
-      for (;;) {
-        const int sym = literal();
-        if (sym < 256) out.push_back(char(sym));
-        else if (sym == 256) break;
-        else {
-          const int li = sym - 257;
-          const int len = lbase[li] + int(bits(lext[li]));
-          const int di = int(huff(5));
-          const int dist = dbase[di] + int(bits(dext[di]));
-          REQUIRE(std::size_t(dist) <= out.size());
-          for (int k = 0; k < len; ++k) out.push_back(out[out.size() - std::size_t(dist)]);
-        }
-      }
-    }
-    return out;
-  }
-};
-
 struct Decoded {
   int width = 0, height = 0;
   std::vector<std::uint8_t> rgb;
 };
 
-// Checks signature, chunk CRCs, IHDR and IEND, inflates IDAT and undoes the row filters.
+// Decodes with libpng (independent of how the file was encoded) and checks it is 8-bit RGB.
 Decoded decode_png(const std::string& png) {
   REQUIRE(png.size() > 8);
   REQUIRE(png.compare(0, 8, std::string("\x89PNG\r\n\x1a\n", 8)) == 0);
+  CHECK(png[25] == 2);  // IHDR colour type: truecolour RGB
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  REQUIRE(png_image_begin_read_from_memory(&image, png.data(), png.size()));
+  image.format = PNG_FORMAT_RGB;
   Decoded d;
-  std::string idat;
-  bool iend = false;
-  for (std::size_t at = 8; at < png.size();) {
-    const std::uint32_t len = be32(png, at);
-    const std::string type = png.substr(at + 4, 4);
-    const std::string body = png.substr(at + 4, 4 + len);
-    CHECK(be32(png, at + 8 + len) == crc32(reinterpret_cast<const std::uint8_t*>(body.data()), body.size()));
-    if (type == "IHDR") {
-      d.width = int(be32(png, at + 8));
-      d.height = int(be32(png, at + 12));
-      CHECK(png[at + 16] == 8);
-      CHECK(png[at + 17] == 2);
-    } else if (type == "IDAT") {
-      idat += png.substr(at + 8, len);
-    } else if (type == "IEND") {
-      iend = true;
-      CHECK(at + 12 == png.size());
-    }
-    at += 12 + len;
-  }
-  CHECK(iend);
-  REQUIRE(idat.size() > 6);
-  CHECK((std::uint8_t(idat[0]) * 256 + std::uint8_t(idat[1])) % 31 == 0);
-  const std::string raw = Inflater{idat, 16}.run();
-  const std::size_t stride = std::size_t(d.width) * 3;
-  REQUIRE(raw.size() == (stride + 1) * std::size_t(d.height));
-  d.rgb.resize(stride * std::size_t(d.height));
-  for (int y = 0; y < d.height; ++y) {
-    const int filter = raw[std::size_t(y) * (stride + 1)];
-    for (std::size_t x = 0; x < stride; ++x) {
-      const int v = std::uint8_t(raw[std::size_t(y) * (stride + 1) + 1 + x]);
-      const int a = x >= 3 ? d.rgb[std::size_t(y) * stride + x - 3] : 0;
-      const int b = y > 0 ? d.rgb[std::size_t(y - 1) * stride + x] : 0;
-      const int c = (y > 0 && x >= 3) ? d.rgb[std::size_t(y - 1) * stride + x - 3] : 0;
-      int pred = 0;
-      if (filter == 1) pred = a;
-      else if (filter == 2) pred = b;
-      else if (filter == 3) pred = (a + b) / 2;
-      else if (filter == 4) {
-        const int p = a + b - c, pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
-        pred = (pa <= pb && pa <= pc) ? a : (pb <= pc ? b : c);
-      }
-      d.rgb[std::size_t(y) * stride + x] = std::uint8_t(v + pred);
-    }
-  }
+  d.width = int(image.width);
+  d.height = int(image.height);
+  d.rgb.resize(PNG_IMAGE_SIZE(image));
+  REQUIRE(png_image_finish_read(&image, nullptr, d.rgb.data(), 0, nullptr));
   return d;
 }
+
 
 std::string slurp(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -206,7 +116,7 @@ TEST_CASE("render: PNG encoder output decodes back to the same pixels") {
   CHECK(d.height == h);
   CHECK(d.rgb == rgb);
 
-  // Long runs compress through length/distance pairs, including the 258 maximum.
+  // Flat images compress well.
   std::vector<std::uint8_t> flat(std::size_t(400) * 300 * 3, 200);
   const std::string flat_png = encode_png(400, 300, flat);
   CHECK(flat_png.size() < flat.size() / 50);
@@ -288,7 +198,7 @@ TEST_CASE("render: readers round-trip VTU particles and PLY/OBJ surfaces with cr
   io::write_ply_points(dir / "particles.0001.ply", pts, fields);
   for (const auto& file : {dir / "particles.0000.vtu", dir / "particles.0001.ply"}) {
     CAPTURE(file);
-    const ParticleFrame f = read_particles(file);
+    const ParticleFrame f = io::read_particle_frame(file);
     REQUIRE(f.position.size() == 3);
     CHECK((f.position[2] - pts[2]).norm() < 1e-6);
     REQUIRE(f.volume.size() == 3);
@@ -299,7 +209,7 @@ TEST_CASE("render: readers round-trip VTU particles and PLY/OBJ surfaces with cr
 
   std::ofstream(dir / "surface.0002.obj") << "mtllib surface.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
                                              "g surface\nusemtl surface\nf 1 2 3\ng crack\nusemtl crack\nf 2 4 3\n";
-  const SurfaceFrame obj = read_surface(dir / "surface.0002.obj");
+  const SurfaceFrame obj = io::read_surface_frame(dir / "surface.0002.obj");
   REQUIRE(obj.triangle.size() == 2);
   REQUIRE(obj.crack.size() == 2);
   CHECK(obj.crack[0] == 0);
@@ -321,7 +231,7 @@ TEST_CASE("render: readers round-trip VTU particles and PLY/OBJ surfaces with cr
       ply.write(reinterpret_cast<const char*>(&fragment), 4);
     }
   }
-  const SurfaceFrame ply = read_surface(dir / "surface.0003.ply");
+  const SurfaceFrame ply = io::read_surface_frame(dir / "surface.0003.ply");
   REQUIRE(ply.triangle.size() == 2);
   CHECK(ply.triangle[1] == std::array<std::uint32_t, 3>{1, 3, 2});
   REQUIRE(ply.crack.size() == 2);
@@ -330,7 +240,7 @@ TEST_CASE("render: readers round-trip VTU particles and PLY/OBJ surfaces with cr
   REQUIRE(scene.triangles.size() == 2);
   CHECK(scene.triangles[0].color != scene.triangles[1].color);  // crack faces in their own colour
 
-  const RunDirectory run = scan_run_directory(dir);
+  const RunDirectory run = io::scan_run_directory(dir);
   REQUIRE(run.frames.size() == 4);
   CHECK(run.frames[2].surface.filename() == "surface.0002.obj");
   CHECK(run.frames[1].particles.filename() == "particles.0001.ply");
