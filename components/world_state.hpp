@@ -99,19 +99,34 @@ template <class F>
 void for_each_array(const WorldState& w, F&& f) {
   using K = ArrayKind;
   const auto& p = w.particles;
-  for (auto* a : {&p.reference_position, &p.position, &p.velocity, &p.acceleration}) f(K::particle, "particles", *a);
+  f(K::particle, "particles.reference_position", p.reference_position);
+  f(K::particle, "particles.position", p.position);
+  f(K::particle, "particles.velocity", p.velocity);
+  f(K::particle, "particles.acceleration", p.acceleration);
   f(K::particle, "particles.volume", p.volume);
   f(K::particle, "particles.mass", p.mass);
   f(K::particle, "particles.material_id", p.material_id);
   f(K::particle, "particles.body_id", p.body_id);
   f(K::particle, "particles.flags", p.flags);
   const auto& m = w.model;
-  for (auto* a : {&m.horizon, &m.dilatation_scale, &m.a4, &m.b4, &m.beta, &m.damping, &m.yield_extension,
-                  &m.plastic_cap, &m.critical_stretch, &m.damage_alpha})
-    f(K::particle, "model", *a);
+  f(K::particle, "model.horizon", m.horizon);
+  f(K::particle, "model.dilatation_scale", m.dilatation_scale);
+  f(K::particle, "model.a4", m.a4);
+  f(K::particle, "model.b4", m.b4);
+  f(K::particle, "model.beta", m.beta);
+  f(K::particle, "model.damping", m.damping);
+  f(K::particle, "model.yield_extension", m.yield_extension);
+  f(K::particle, "model.plastic_cap", m.plastic_cap);
+  f(K::particle, "model.critical_stretch", m.critical_stretch);
+  f(K::particle, "model.damage_alpha", m.damage_alpha);
   const auto& s = w.state;
-  for (auto* a : {&s.dilatation, &s.dilatation_coupling, &s.damage, &s.break_extension}) f(K::particle, "state", *a);
-  for (auto* a : {&s.internal_force, &s.external_force, &s.contact_force}) f(K::particle, "state.force", *a);
+  f(K::particle, "state.dilatation", s.dilatation);
+  f(K::particle, "state.dilatation_coupling", s.dilatation_coupling);
+  f(K::particle, "state.damage", s.damage);
+  f(K::particle, "state.break_extension", s.break_extension);
+  f(K::particle, "state.internal_force", s.internal_force);
+  f(K::particle, "state.external_force", s.external_force);
+  f(K::particle, "state.contact_force", s.contact_force);
   f(K::particle, "state.broken_bonds", s.broken_bonds);
   f(K::particle, "state.bond_end", s.bond_end);
   const auto& b = w.bonds;
@@ -127,7 +142,9 @@ void for_each_array(const WorldState& w, F&& f) {
   f(K::mesh, "mesh.vertices", w.mesh.vertices);
   f(K::mesh, "mesh.tets", w.mesh.tets);
   const auto& e = w.embedded;
-  for (auto* a : {&e.reference_vertices, &e.vertices, &e.vertex_velocity}) f(K::mesh, "embedded.vertices", *a);
+  f(K::mesh, "embedded.reference_vertices", e.reference_vertices);
+  f(K::mesh, "embedded.vertices", e.vertices);
+  f(K::mesh, "embedded.vertex_velocity", e.vertex_velocity);
   f(K::mesh, "embedded.origin", e.origin);
   f(K::mesh, "embedded.split_copy", e.split_copy);
   f(K::mesh, "embedded.weight_rows", e.weight_rows);
@@ -140,11 +157,16 @@ void for_each_array(const WorldState& w, F&& f) {
   f(K::mesh, "embedded.pair_local", e.pair_local);
   f(K::mesh, "embedded.pair_bond", e.pair_bond);
   f(K::mesh, "embedded.pair_state", e.pair_state);
-  for (auto* a : {&e.watched_pairs, &e.pending, &e.fresh, &e.incidence_offsets, &e.incidence})
-    f(K::mesh, "embedded.lists", *a);
+  f(K::mesh, "embedded.watched_pairs", e.watched_pairs);
+  f(K::mesh, "embedded.pending", e.pending);
+  f(K::mesh, "embedded.fresh", e.fresh);
+  f(K::mesh, "embedded.incidence_offsets", e.incidence_offsets);
+  f(K::mesh, "embedded.incidence", e.incidence);
   const auto& fem = w.fem;
   f(K::mesh, "fem.dm_inverse", fem.dm_inverse);
-  for (auto* a : {&fem.volume, &fem.lame_lambda, &fem.lame_mu}) f(K::mesh, "fem.tet", *a);
+  f(K::mesh, "fem.volume", fem.volume);
+  f(K::mesh, "fem.lame_lambda", fem.lame_lambda);
+  f(K::mesh, "fem.lame_mu", fem.lame_mu);
   f(K::mesh, "fem.vertex_offsets", fem.vertex_offsets);
   f(K::mesh, "fem.vertex_corners", fem.vertex_corners);
   f(K::mesh, "fem.corner_force", fem.corner_force);
@@ -152,11 +174,17 @@ void for_each_array(const WorldState& w, F&& f) {
   f(K::contact, "contact.size", c.size);
   f(K::contact, "contact.grid.cell_of", c.grid.cell_of);
   f(K::contact, "contact.grid.sorted_key", c.grid.sorted_key);
-  for (auto* a : {&c.grid.bucket, &c.grid.start, &c.grid.cursor, &c.grid.sorted}) f(K::contact, "contact.grid", *a);
+  f(K::contact, "contact.grid.bucket", c.grid.bucket);
+  f(K::contact, "contact.grid.start", c.grid.start);
+  f(K::contact, "contact.grid.cursor", c.grid.cursor);
+  f(K::contact, "contact.grid.sorted", c.grid.sorted);
   f(K::contact, "contact.grid.sorted_position", c.grid.sorted_position);
-  for (auto* a : {&c.pairs.offsets, &c.pairs.neighbor, &c.pairs.count, &c.pairs.scratch, &c.pairs.offsets_next,
-                  &c.pairs.neighbor_next})
-    f(K::contact, "contact.pairs", *a);
+  f(K::contact, "contact.pairs.offsets", c.pairs.offsets);
+  f(K::contact, "contact.pairs.neighbor", c.pairs.neighbor);
+  f(K::contact, "contact.pairs.count", c.pairs.count);
+  f(K::contact, "contact.pairs.scratch", c.pairs.scratch);
+  f(K::contact, "contact.pairs.offsets_next", c.pairs.offsets_next);
+  f(K::contact, "contact.pairs.neighbor_next", c.pairs.neighbor_next);
   f(K::contact, "contact.pairs.built_position", c.pairs.built_position);
   f(K::contact, "contact.pairs.bonded_stamp", c.pairs.bonded_stamp);
   f(K::contact, "contact.pairs.alive_at_build", c.pairs.alive_at_build);
@@ -167,7 +195,8 @@ void for_each_array(const WorldState& w, F&& f) {
   for (const auto& list : w.boundary.particles) f(K::other, "boundary.particles", list);
   f(K::other, "derived.displacement", w.derived.displacement);
   f(K::other, "derived.plastic_strain", w.derived.plastic_strain);
-  for (auto* a : {&w.derived.alive_bonds, &w.derived.fragment_id}) f(K::other, "derived", *a);
+  f(K::other, "derived.alive_bonds", w.derived.alive_bonds);
+  f(K::other, "derived.fragment_id", w.derived.fragment_id);
 }
 
 }  // namespace perifx

@@ -14,7 +14,7 @@
 // Every write goes to particle i's own bond slots or to particle i: no atomics, independent of thread
 // count (bond_rules.hpp explains why both ends of a bond reach the same plastic and break decisions).
 // Reads:  position, dilatation, plastic_extension, bond_alive, fracture_threshold.
-// Writes: internal_force, plastic_extension, bond_alive, damage.
+// Writes: internal_force, plastic_extension, bond_alive, damage, bond_end (its packed far-end copy).
 // Scheduled instead of (plasticity) → elastic_force → … → (fracture → damage) when
 // model.fuse_bond_systems is true (the default), elastic scenes included. It runs before kick_end,
 // where elastic_force runs; fracture used to run after kick_end, but nothing in between moves the
@@ -149,7 +149,8 @@ SystemDecl bond_pass_system(WorldState& w) {
   return {"bond_pass",
           {Component::position, Component::dilatation, Component::plastic_extension, Component::bond_alive,
            Component::fracture_threshold},
-          {Component::internal_force, Component::plastic_extension, Component::bond_alive, Component::damage},
+          {Component::internal_force, Component::plastic_extension, Component::bond_alive, Component::damage,
+           Component::bond_end},
           [&w] { run_bond_pass(w, w.particles.position, w.state.internal_force); }};
 }
 

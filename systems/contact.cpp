@@ -30,7 +30,7 @@
 // of the list; bonds never heal.
 //
 // Reads: position, velocity, bond_alive, damage (broken-bond counts, to notice breaks).
-// Writes: contact_force, and its own pair list.
+// Writes: contact_force, contact_list (its own grid and pair list).
 #include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_reduce.h>
 #include <oneapi/tbb/task_arena.h>
@@ -312,7 +312,7 @@ void setup_contact(WorldState& w) {
 SystemDecl contact_system(WorldState& w) {
   return {"contact",
           {Component::position, Component::velocity, Component::bond_alive, Component::damage},
-          {Component::contact_force},
+          {Component::contact_force, Component::contact_list},
           [&w] {
             std::uint64_t broken_now = 0;
             switch (pair_update_needed(w, broken_now)) {

@@ -19,6 +19,8 @@ const char* component_name(Component c) {
     case Component::contact_force: return "contact_force";
     case Component::projectiles: return "projectiles";
     case Component::mesh: return "mesh";
+    case Component::bond_end: return "bond_end";
+    case Component::contact_list: return "contact_list";
     case Component::count_: break;
   }
   return "?";

@@ -27,6 +27,8 @@ enum class Component : std::uint8_t {
   contact_force,
   projectiles,
   mesh,  // the embedded (cracking) tet mesh: WorldState::embedded
+  bond_end,      // ParticleState::bond_end, the packed far-end copy the bond pass refreshes and reads
+  contact_list,  // ContactState's grid and Verlet pair list (systems/contact.cpp)
   count_  // number of components
 };
 const char* component_name(Component c);
