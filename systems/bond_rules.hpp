@@ -15,7 +15,10 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <type_traits>
+#include <vector>
 
+#include "components/bonds.hpp"
 #include "components/math.hpp"
 #include "components/particles.hpp"
 
@@ -178,6 +181,76 @@ inline T sum_lanes(const T (&lanes)[kBondLanes]) {
   T total = lanes[0];
   for (int l = 1; l < kBondLanes; ++l) total += lanes[l];
   return total;
+}
+
+// The bond arrays (components/bonds.hpp, CSR) and the positions as the raw streams the lane kernels
+// read, unpacked here once for dilatation.cpp, elastic_force.cpp and bond_pass.cpp. Raw pointers, so
+// that a kernel can copy them into its task's locals: a store through a uint8_t* (alive) may alias
+// anything in memory (char aliasing), and pointers the compiler had to read from memory would be
+// reloaded after every such store. kMutable gives writable e^p and alive streams (the bond pass).
+// Shapes: offsets particles + 1; neighbor, reverse, reference_length, weight, plastic,
+// plastic_mirror, alive one entry per directed bond k (CSR: particle i owns [offsets[i],
+// offsets[i+1])); y and x 3 doubles per particle (current and reference positions, x y z).
+template <bool kMutable>
+struct BondStreams {
+  using Real = std::conditional_t<kMutable, double, const double>;
+  using Flag = std::conditional_t<kMutable, std::uint8_t, const std::uint8_t>;
+  const std::uint32_t* offsets;
+  const std::uint32_t* neighbor;
+  const std::uint32_t* reverse;
+  const double* reference_length;
+  const double* weight;
+  Real* plastic;         // e^p_ij
+  Real* plastic_mirror;  // e^p_ji (Bonds::plastic_extension_mirror)
+  Flag* alive;
+  const double* y;
+  const double* x;
+
+  // Particle i's end of its bonds, in component form.
+  struct Origin {
+    double yx, yy, yz, xx, xy, xz;
+  };
+  Origin origin(std::size_t i) const {
+    return {y[3 * i], y[3 * i + 1], y[3 * i + 2], x[3 * i], x[3 * i + 1], x[3 * i + 2]};
+  }
+  // The bond vectors from particle i (its origin o) to j: dy = y_j − y_i and ξ = x_j − x_i.
+  struct Vectors {
+    double dyx, dyy, dyz, dxx, dxy, dxz;
+  };
+  Vectors vectors(const Origin& o, std::size_t j) const {
+    return {y[3 * j] - o.yx, y[3 * j + 1] - o.yy, y[3 * j + 2] - o.yz,
+            x[3 * j] - o.xx, x[3 * j + 1] - o.xy, x[3 * j + 2] - o.xz};
+  }
+};
+inline BondStreams<false> bond_streams(const Bonds& b, const std::vector<Vec3>& y, const std::vector<Vec3>& x) {
+  return {b.offsets.data(), b.neighbor.data(), b.reverse.data(), b.reference_length.data(), b.weight.data(),
+          b.plastic_extension.data(), b.plastic_extension_mirror.data(), b.alive.data(), y.data()->data(),
+          x.data()->data()};
+}
+inline BondStreams<true> bond_streams(Bonds& b, const std::vector<Vec3>& y, const std::vector<Vec3>& x) {
+  return {b.offsets.data(), b.neighbor.data(), b.reverse.data(), b.reference_length.data(), b.weight.data(),
+          b.plastic_extension.data(), b.plastic_extension_mirror.data(), b.alive.data(), y.data()->data(),
+          x.data()->data()};
+}
+
+// Runtime model flags to template flags, written once for every bond kernel: calls
+// kernel(std::bool_constant<f_1>{}, ..., std::bool_constant<f_n>{}) for the runtime values f_1..f_n
+// (e.g. any_anisotropic, any_plastic, any_fracture), so each combination is its own instantiation
+// with the branches on the flags compiled out. Returns what the kernel returns.
+namespace detail {
+template <bool... kSet, class Kernel>
+inline decltype(auto) dispatch_flags(Kernel& kernel) {
+  return kernel(std::bool_constant<kSet>{}...);
+}
+template <bool... kSet, class Kernel, class... Rest>
+inline decltype(auto) dispatch_flags(Kernel& kernel, bool flag, Rest... rest) {
+  if (flag) return dispatch_flags<kSet..., true>(kernel, rest...);
+  return dispatch_flags<kSet..., false>(kernel, rest...);
+}
+}  // namespace detail
+template <class Kernel, class... Flags>
+inline decltype(auto) dispatch_flags(Kernel&& kernel, Flags... flags) {
+  return detail::dispatch_flags<>(kernel, static_cast<bool>(flags)...);
 }
 
 // Eq 19's damage of a particle from its bond counts: φ = 1 − n/N, and broken = N − n.

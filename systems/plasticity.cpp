@@ -10,8 +10,8 @@
 // so the copies stay bit-identical and every slot is written only by its owner: in place, no
 // atomics, independent of thread count. Ψ0 = ∞ never yields.
 // Reads:  position, dilatation, plastic_extension, bond_alive.   Writes: plastic_extension.
-// Scheduled after dilatation and before elastic_force, only when world.any_plastic and the scene
-// runs the bond systems separately (otherwise bond_pass.cpp applies the same rule in its fused pass).
+// Not scheduled: bond_pass.cpp applies the same rule in its fused pass; this separate system (after
+// dilatation, before elastic_force) is the tests' oracle for it.
 #include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
@@ -46,8 +46,7 @@ void plastic_pass(WorldState& w, const std::vector<Vec3>& y) {
 }  // namespace
 
 void update_plastic_extension(WorldState& w, const std::vector<Vec3>& y) {
-  if (w.any_anisotropic) plastic_pass<true>(w, y);
-  else plastic_pass<false>(w, y);
+  dispatch_flags([&](auto aniso) { plastic_pass<decltype(aniso)::value>(w, y); }, w.any_anisotropic);
 }
 
 SystemDecl plasticity_system(WorldState& w) {

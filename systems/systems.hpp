@@ -1,14 +1,13 @@
 // Every system of a perifx step, and the kernels they wrap. One .cpp per system; each file's header
 // comment names the paper's equations it implements and the components it reads and writes.
 //
-// Per-step order (the scheduler derives the actual graph from the declared reads/writes), with
-// model.fuse_bond_systems (the default):
+// Per-step order (the scheduler derives the actual graph from the declared reads/writes):
 //   kick_begin → boundary_conditions → drift → colliders → (contact) → dilatation → bond_pass
 //   (plasticity + elastic_force + fracture + damage in one pass over the bonds);
 //   external_loads (independent of the chain above) → kick_end → (fracture_threshold)
 //   → (crack_faces → mesh_split) → mesh_vertices      (embedded mesh, §5.2)
-// and with it false, the separate systems in place of bond_pass: (plasticity) → elastic_force, and
-// after kick_end (fracture → damage). Both give the same bits.
+// The separate systems (plasticity) → elastic_force and, after kick_end, (fracture → damage) are the
+// test oracle for bond_pass (same bits; tests/systems/test_fracture.cpp); the step does not use them.
 // i.e. velocity Verlet (kick–drift–kick), with constraints applied to the velocity before the drift.
 #pragma once
 #include <vector>
@@ -86,15 +85,15 @@ SystemDecl boundary_condition_system(WorldState& world);
 SystemDecl drift_system(WorldState& world);
 SystemDecl collider_system(WorldState& world);
 SystemDecl dilatation_system(WorldState& world);
-SystemDecl elastic_force_system(WorldState& world);
+SystemDecl elastic_force_system(WorldState& world);  // test oracle for bond_pass
 SystemDecl external_load_system(WorldState& world);
 SystemDecl kick_end_system(WorldState& world);
 SystemDecl contact_system(WorldState& world);
 SystemDecl projectile_drift_system(WorldState& world);
 SystemDecl projectile_contact_system(WorldState& world);
-SystemDecl plasticity_system(WorldState& world);
-SystemDecl fracture_system(WorldState& world);
-SystemDecl damage_system(WorldState& world);
+SystemDecl plasticity_system(WorldState& world);  // test oracle for bond_pass
+SystemDecl fracture_system(WorldState& world);  // test oracle for bond_pass
+SystemDecl damage_system(WorldState& world);  // test oracle for bond_pass
 SystemDecl fracture_threshold_system(WorldState& world);
 SystemDecl bond_pass_system(WorldState& world);  // fused plasticity + elastic_force + fracture + damage
 SystemDecl crack_face_system(WorldState& world);

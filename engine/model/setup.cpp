@@ -214,23 +214,15 @@ void add_step_systems(WorldState& w, Scheduler& scheduler) {
   scheduler.add(systems::collider_system(w));
   // Contact reads the bonds as they were at the start of the step (before this step's breaks).
   if (w.contact.enabled) scheduler.add(systems::contact_system(w));
-  const bool fused = w.scene.fuse_bond_systems;
   if (w.scene.solver != scene::Solver::peridynamics) {
     scheduler.add(systems::fem_force_system(w));
   } else {
     scheduler.add(systems::dilatation_system(w));
-    if (fused) {
-      scheduler.add(systems::bond_pass_system(w));
-    } else {
-      if (w.any_plastic) scheduler.add(systems::plasticity_system(w));
-      scheduler.add(systems::elastic_force_system(w));
-    }
+    scheduler.add(systems::bond_pass_system(w));  // plasticity, force, fracture, damage in one pass
   }
   scheduler.add(systems::external_load_system(w));
   if (!w.projectiles.bodies.empty()) scheduler.add(systems::projectile_contact_system(w));
   scheduler.add(systems::kick_end_system(w));
-  if (!fused && w.any_fracture) scheduler.add(systems::fracture_system(w));
-  if (!fused && w.any_fracture) scheduler.add(systems::damage_system(w));
   if (w.any_fracture) scheduler.add(systems::fracture_threshold_system(w));
   // Embedded mesh (§5.2): crack faces and vertex splitting when bonds can break; vertex motion when
   // anything uses the mesh surface (fracture, or surface/tet output requested).

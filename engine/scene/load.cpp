@@ -122,7 +122,6 @@ class Converter {
 
     s.normalization = j["model"]["normalization"] == "paper" ? Normalization::paper : Normalization::discrete;
     s.family = j["model"]["family"] == "mesh" ? FamilyRule::mesh : FamilyRule::distance;
-    s.fuse_bond_systems = j["model"]["fuse_bond_systems"].get<bool>();
     {
       const std::string solver = j["model"]["solver"].get<std::string>();
       s.solver = solver == "fem_linear"      ? Solver::fem_linear

@@ -177,7 +177,6 @@ struct Scene {
   Normalization normalization = Normalization::paper;
   FamilyRule family = FamilyRule::mesh;
   Solver solver = Solver::peridynamics;
-  bool fuse_bond_systems = true;       // plasticity + force + fracture + damage in one bond pass
   std::vector<Material> materials;
   std::vector<Body> bodies;
   std::vector<BoundaryCondition> boundary_conditions;

@@ -230,10 +230,6 @@ Key build_spec() {
                  "on the same tet mesh (linear or corotated linear elasticity, explicit, lumped mass; "
                  "particles are the mesh vertices; elastic materials only, no contact or initial cracks). "
                  "`perifx compare` maps the two onto each other.").def("peridynamics"),
-          key("fuse_bond_systems", Type::boolean,
-              "Run plasticity, the elastic force, the fracture test and damage as one pass over the bonds "
-              "(fast); false runs them as separate systems. Both give the same results bit for bit; the "
-              "separate form is for debugging and profiling.").def(true),
       }).def(Json::object()),
       material.at_least(1).req(),
       body,
