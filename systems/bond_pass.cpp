@@ -61,10 +61,11 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
     auto lane = [=, &fx, &fy, &fz, &alive_lanes, &breaks_lanes](std::size_t k, int l, std::uint64_t was_alive) {
       const std::size_t j = bs.neighbor[k];
       const double r = bs.reference_length[k];
-      const auto v = bs.vectors(o, j);
+      const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
+      const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
       BondGeometry g;
       // A collapsed bond (coincident particles) has no direction: no force, no flow, no break.
-      const bool active = bond_geometry(v.dyx, v.dyy, v.dyz, v.dxx, v.dxy, v.dxz, r, g) & (was_alive != 0);
+      const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (was_alive != 0);
       const BondEnd& end_j = ends[j];
       const SideConstants side_j = side_constants(end_j);
       const double w_ij = bs.weight[k];
@@ -84,9 +85,9 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
       const double density = paired_force_density<kPlastic>(g, w_ij, w_ji, ep_ij, ep_ji, end_i.coupling, end_i.b4,
                                                             end_j.coupling, end_j.b4, end_j.volume);
       const double c = active ? density : 0.0;
-      fx[l] += c * v.dyx;
-      fy[l] += c * v.dyy;
-      fz[l] += c * v.dyz;
+      fx[l] += c * dyx;
+      fy[l] += c * dyy;
+      fz[l] += c * dyz;
       std::uint64_t breaks = 0;
       if constexpr (kFracture) {  // fracture.cpp
         breaks = static_cast<std::uint64_t>(active & (g.extension > 0.0) &

@@ -22,9 +22,10 @@ void compute_dilatation(const WorldState& w, const std::vector<Vec3>& y_vec, std
     auto lane = [=, &sum](std::size_t k, int l, std::uint64_t is_alive) {
       const std::size_t j = bs.neighbor[k];
       const double r = bs.reference_length[k];
-      const auto v = bs.vectors(o, j);
-      const double dot = v.dyx * v.dxx + v.dyy * v.dxy + v.dyz * v.dxz;
-      const double len = std::sqrt(v.dyx * v.dyx + v.dyy * v.dyy + v.dyz * v.dyz);
+      const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
+      const double dot =
+          dyx * (bs.x[3 * j] - o.xx) + dyy * (bs.x[3 * j + 1] - o.xy) + dyz * (bs.x[3 * j + 2] - o.xz);
+      const double len = std::sqrt(dyx * dyx + dyy * dyy + dyz * dyz);
       // e·Λ = (|y_j−y_i| − |ξ|) · (y_j−y_i)·ξ / (|y_j−y_i| |ξ|); a collapsed bond has no direction.
       const double e_lambda = (len - r) * dot / (len * r);
       const double term = bs.weight[k] * e_lambda * volume[j];

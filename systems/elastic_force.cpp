@@ -54,19 +54,19 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec,
       double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
       auto lane = [=, &fx, &fy, &fz](std::size_t k, int l, std::uint64_t is_alive) {
         const std::size_t j = bs.neighbor[k];
-        const auto v = bs.vectors(o, j);
+        const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
+        const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
         BondGeometry g;
-        const bool active =
-            bond_geometry(v.dyx, v.dyy, v.dyz, v.dxx, v.dxy, v.dxz, bs.reference_length[k], g) & (is_alive != 0);
+        const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, bs.reference_length[k], g) & (is_alive != 0);
         const double w_ij = bs.weight[k];
         const double w_ji = kAnisotropic ? bs.weight[bs.reverse[k]] : w_ij;
         const double ep_ij = kPlastic ? bs.plastic[k] : 0.0, ep_ji = kPlastic ? bs.plastic_mirror[k] : 0.0;
         const double density =
             paired_force_density<kPlastic>(g, w_ij, w_ji, ep_ij, ep_ji, p_i, b4_i, p[j], b4[j], volume[j]);
         const double c = active ? density : 0.0;
-        fx[l] += c * v.dyx;
-        fy[l] += c * v.dyy;
-        fz[l] += c * v.dyz;
+        fx[l] += c * dyx;
+        fy[l] += c * dyy;
+        fz[l] += c * dyz;
       };
       for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
       out[3 * i] = volume[i] * sum_lanes(fx);
