@@ -217,12 +217,11 @@ struct BondStreams {
     return {y[3 * i], y[3 * i + 1], y[3 * i + 2], x[3 * i], x[3 * i + 1], x[3 * i + 2]};
   }
 };
-inline BondStreams<false> bond_streams(const Bonds& b, const std::vector<Vec3>& y, const std::vector<Vec3>& x) {
-  return {b.offsets.data(), b.neighbor.data(), b.reverse.data(), b.reference_length.data(), b.weight.data(),
-          b.plastic_extension.data(), b.plastic_extension_mirror.data(), b.alive.data(), y.data()->data(),
-          x.data()->data()};
-}
-inline BondStreams<true> bond_streams(Bonds& b, const std::vector<Vec3>& y, const std::vector<Vec3>& x) {
+// From Bonds (writable streams) or const Bonds (read-only), positions y and reference positions x.
+template <class BondArrays>
+inline BondStreams<!std::is_const_v<BondArrays>> bond_streams(BondArrays& b, const std::vector<Vec3>& y,
+                                                                const std::vector<Vec3>& x) {
+  static_assert(std::is_same_v<std::remove_const_t<BondArrays>, Bonds>);
   return {b.offsets.data(), b.neighbor.data(), b.reverse.data(), b.reference_length.data(), b.weight.data(),
           b.plastic_extension.data(), b.plastic_extension_mirror.data(), b.alive.data(), y.data()->data(),
           x.data()->data()};

@@ -6,9 +6,9 @@
 //   (plasticity + elastic_force + fracture + damage in one pass over the bonds);
 //   external_loads (independent of the chain above) → kick_end → (fracture_threshold)
 //   → (crack_faces → mesh_split) → mesh_vertices      (embedded mesh, §5.2)
+// i.e. velocity Verlet (kick–drift–kick), with constraints applied to the velocity before the drift.
 // The separate systems (plasticity) → elastic_force and, after kick_end, (fracture → damage) are the
 // test oracle for bond_pass (same bits; tests/systems/test_fracture.cpp); the step does not use them.
-// i.e. velocity Verlet (kick–drift–kick), with constraints applied to the velocity before the drift.
 #pragma once
 #include <vector>
 
