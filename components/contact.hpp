@@ -6,25 +6,9 @@
 #include <vector>
 
 #include "components/math.hpp"
+#include "components/spatial_grid.hpp"
 
 namespace perifx {
-
-// Particle–particle contact settings resolved at setup, and the spatial grid rebuilt every step.
-// The grid is a hashed uniform grid: particle i lies in cell floor(y_i / cell); cells hash into
-// `table` buckets (a power of two ≥ 2·particles) as bucket = (x + h(y, z)) mod table, so the three
-// cells x−1, x, x+1 of a row are three consecutive buckets, and a counting sort groups particles by
-// bucket, in increasing index inside each bucket. Every buffer is sized at setup; a step never allocates.
-struct ContactGrid {
-  double cell = 0.0;                                 // cell edge, m (= the largest contact distance + skin)
-  std::uint32_t mask = 0;                            // table − 1
-  std::vector<std::uint64_t> cell_of;                // per particle: its cell, 3 × 21-bit packed key
-  std::vector<std::uint32_t> bucket;                 // per particle: hash of its cell
-  std::vector<std::uint32_t> start;                  // table + 1: bucket b holds sorted[start[b], start[b+1])
-  std::vector<std::uint32_t> cursor;                 // table: scatter cursor of the counting sort
-  std::vector<std::uint32_t> sorted;                 // particle indices grouped by bucket
-  std::vector<std::uint64_t> sorted_key;             // cell_of[sorted[q]]: the scan reads a stream
-  std::vector<Vec3> sorted_position;                 // position[sorted[q]] at the build
-};
 
 // Candidate pairs (Verlet list with a skin, as in molecular dynamics): for each particle i, the
 // particles j that were within largest d_c + skin of it and not joined by an alive bond when the list
@@ -66,7 +50,7 @@ struct ContactState {
   double friction = 0.0;         // Coulomb coefficient
   double largest_distance = 0.0; // the largest d_c of any pair, m
   std::vector<double> size;      // s_i = ∛V_i per particle, m
-  ContactGrid grid;
+  SpatialGrid grid;              // cell = largest d_c + skin; rebuilt with the pair list
   ContactPairs pairs;
 };
 

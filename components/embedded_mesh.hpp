@@ -1,4 +1,4 @@
-// The embedded tetrahedral mesh as it cracks (paper §5.2, notes.md "Mesh embedding and family"):
+// The embedded tetrahedral mesh as it cracks (paper §5.2, systems/README.md §6.4):
 // plain data, set up at world construction (systems::setup_embedded_mesh) from WorldState::mesh,
 // then changed only by the crack_faces, mesh_split and mesh_vertices systems.
 //

@@ -46,7 +46,7 @@ struct ParticleModel {
                                         // |e^d − e^p| > Y·|G ξ|; ∞ = purely elastic
   std::vector<double> plastic_cap;      // γ/|ξ| (Eq 16), dimensionless
   std::vector<double> critical_stretch; // s_c (Eq 19); ∞ = unbreakable
-  std::vector<double> damage_alpha;     // α (Eq 19, notes.md)
+  std::vector<double> damage_alpha;     // α (Eq 19, systems/README.md §5)
 };
 
 // What the fused bond pass reads of the far end j of a bond i→j, packed in one 64-byte line per

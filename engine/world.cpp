@@ -32,9 +32,7 @@ World::World(const scene::Scene& scene) : impl_(std::make_unique<Impl>()) {
   impl_->scene = scene;
   impl_->scheduler = std::make_unique<Scheduler>(scene.threads);
   impl_->state = setup::build_world_state(scene, *impl_->scheduler);
-  systems::PipelineOptions options;
-  options.separate_bond_systems = !scene.fuse_bond_systems;
-  for (auto& system : systems::step_pipeline(*impl_->state, options)) impl_->scheduler->add(std::move(system));
+  for (auto& system : systems::step_pipeline(*impl_->state)) impl_->scheduler->add(std::move(system));
   impl_->scheduler->build();
 }
 

@@ -6,8 +6,8 @@
 //                                                  of the step; a broken bond still pushed this step
 //   4. damage         (Eq 19, damage.cpp):        φ_i and broken bonds after the breaks
 // The per-bond rules are the inline functions of bond_rules.hpp that the separate systems call, in the
-// same order, so scenes with `model.fuse_bond_systems` true and false give the same bits (a test
-// checks it). Why fuse: the separate systems recompute |y_j − y_i| and Λ and stream the bond arrays
+// same order, so the fused pass and the separate systems give the same bits (the separate systems
+// are kept as the test oracle; a test checks it). Why fuse: the separate systems recompute |y_j − y_i| and Λ and stream the bond arrays
 // four times; fused, the step does it twice (here and in dilatation).
 // The far end's per-particle numbers are read from a packed copy (ParticleState::bond_end, one cache
 // line per particle) that the pass refreshes first.
@@ -15,8 +15,8 @@
 // count (bond_rules.hpp explains why both ends of a bond reach the same plastic and break decisions).
 // Reads:  position, dilatation, plastic_extension, bond_alive, fracture_threshold.
 // Writes: internal_force, plastic_extension, bond_alive, damage, bond_end (its packed far-end copy).
-// Scheduled instead of (plasticity) → elastic_force → … → (fracture → damage) when
-// model.fuse_bond_systems is true (the default), elastic scenes included. It runs before kick_end,
+// Scheduled in every peridynamic step, elastic scenes included, where the separate systems
+// (plasticity) → elastic_force → … → (fracture → damage) would run. It runs before kick_end,
 // where elastic_force runs; fracture used to run after kick_end, but nothing in between moves the
 // particles or reads the bonds, so the break decisions are the same.
 #include "bond_rules.hpp"
@@ -42,63 +42,43 @@ void pack_bond_ends(WorldState& w) {
 template <bool kAnisotropic, bool kPlastic, bool kFracture>
 void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>& force) {
   pack_bond_ends(w);
-  Bonds& b = w.bonds;
-  // Raw pointers, captured by value and copied into the task's locals: a store through a uint8_t*
-  // (alive) may alias anything in memory (char aliasing), so pointers the compiler had to read from
-  // memory would be reloaded after every store. Positions as flat arrays of 3 doubles per particle.
-  const std::uint32_t* const offsets_p = b.offsets.data();
-  const std::uint32_t* const neighbor_p = b.neighbor.data();
-  const std::uint32_t* const reverse_p = b.reverse.data();
-  const double* const reference_length_p = b.reference_length.data();
-  const double* const weight_p = b.weight.data();
-  double* const plastic_p = b.plastic_extension.data();
-  double* const plastic_mirror_p = b.plastic_extension_mirror.data();
-  std::uint8_t* const alive_p = b.alive.data();
-  const double* const y_p = y_vec.data()->data();
-  const double* const x_p = w.particles.reference_position.data()->data();
+  // Raw pointers, captured by value and copied into the task's locals (BondStreams in bond_rules.hpp
+  // says why: the alive stores).
+  const auto bs_p = bond_streams(w.bonds, y_vec, w.particles.reference_position);
   const BondEnd* const ends_p = w.state.bond_end.data();
-  const std::uint32_t* const initial_count_p = b.initial_count.data();
+  const std::uint32_t* const initial_count_p = w.bonds.initial_count.data();
   double* const damage_p = w.state.damage.data();
   std::uint32_t* const broken_p = w.state.broken_bonds.data();
   double* const force_p = force.data()->data();
   parallel_for_each(w.particles.count(), [=](std::size_t i) {
-    const std::uint32_t* const neighbor = neighbor_p;
-    const std::uint32_t* const reverse = reverse_p;
-    const double* const reference_length = reference_length_p;
-    const double* const weight = weight_p;
-    double* const plastic = plastic_p;
-    double* const plastic_mirror = plastic_mirror_p;
-    std::uint8_t* const alive_flag = alive_p;
-    const double* const y = y_p;
-    const double* const x = x_p;
+    const auto bs = bs_p;
     const BondEnd* const ends = ends_p;
-    const double yix = y[3 * i], yiy = y[3 * i + 1], yiz = y[3 * i + 2];
-    const double xix = x[3 * i], xiy = x[3 * i + 1], xiz = x[3 * i + 2];
+    const auto o = bs.origin(i);
     const BondEnd end_i = ends[i];
     const SideConstants side_i = side_constants(end_i);
     double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
     std::uint64_t alive_lanes[kBondLanes] = {}, breaks_lanes[kBondLanes] = {};
     auto lane = [=, &fx, &fy, &fz, &alive_lanes, &breaks_lanes](std::size_t k, int l, std::uint64_t was_alive) {
-      const std::size_t j = neighbor[k];
-      const double r = reference_length[k];
-      const double dyx = y[3 * j] - yix, dyy = y[3 * j + 1] - yiy, dyz = y[3 * j + 2] - yiz;
-      const double dxx = x[3 * j] - xix, dxy = x[3 * j + 1] - xiy, dxz = x[3 * j + 2] - xiz;
+      const std::size_t j = bs.neighbor[k];
+      const double r = bs.reference_length[k];
+      const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
+      const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
       BondGeometry g;
       // A collapsed bond (coincident particles) has no direction: no force, no flow, no break.
       const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (was_alive != 0);
       const BondEnd& end_j = ends[j];
       const SideConstants side_j = side_constants(end_j);
-      const double w_ij = weight[k];
-      const double w_ji = kAnisotropic ? weight[reverse[k]] : w_ij;
+      const double w_ij = bs.weight[k];
+      const double w_ji = kAnisotropic ? bs.weight[bs.reverse[k]] : w_ij;
       double ep_ij = 0.0, ep_ji = 0.0;
       if constexpr (kPlastic) {  // plasticity.cpp
-        const double old_ij = plastic[k], old_ji = plastic_mirror[k];
+        const double old_ij = bs.plastic[k], old_ji = bs.plastic_mirror[k];
         ep_ij = side_plastic_extension<kAnisotropic>(g, r, w_ij, old_ij, side_i);
         ep_ji = side_plastic_extension<kAnisotropic>(g, r, w_ji, old_ji, side_j);
         ep_ij = active ? ep_ij : old_ij;
         ep_ji = active ? ep_ji : old_ji;
-        plastic[k] = ep_ij;
-        plastic_mirror[k] = ep_ji;
+        bs.plastic[k] = ep_ij;
+        bs.plastic_mirror[k] = ep_ji;
       }
       // elastic_force.cpp. Computed for every lane, then selected: a load inside the condition would
       // be a masked gather.
@@ -117,13 +97,14 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
       breaks_lanes[l] = breaks;
       alive_lanes[l] += was_alive & ~breaks;  // damage.cpp (a collapsed bond stays alive)
     };
+    std::uint8_t* const alive_flag = bs.alive;
     auto finish = [&breaks_lanes, alive_flag](std::size_t k, int n) {
       if constexpr (kFracture) {
         for (int l = 0; l < n; ++l)
           if (breaks_lanes[l]) alive_flag[k + static_cast<std::size_t>(l)] = 0;  // rare: a predictable branch
       }
     };
-    for_each_bond_lane(offsets_p[i], offsets_p[i + 1], alive_flag, lane, finish);
+    for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], alive_flag, lane, finish);
     const double v_i = end_i.volume;
     force_p[3 * i] = v_i * sum_lanes(fx);
     force_p[3 * i + 1] = v_i * sum_lanes(fy);
@@ -135,14 +116,11 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
 }  // namespace
 
 void run_bond_pass(WorldState& w, const std::vector<Vec3>& y, std::vector<Vec3>& force) {
-  const bool aniso = w.any_anisotropic, plastic = w.any_plastic, fracture = w.any_fracture;
-  if (aniso) {
-    if (plastic) fracture ? bond_pass<true, true, true>(w, y, force) : bond_pass<true, true, false>(w, y, force);
-    else fracture ? bond_pass<true, false, true>(w, y, force) : bond_pass<true, false, false>(w, y, force);
-  } else {
-    if (plastic) fracture ? bond_pass<false, true, true>(w, y, force) : bond_pass<false, true, false>(w, y, force);
-    else fracture ? bond_pass<false, false, true>(w, y, force) : bond_pass<false, false, false>(w, y, force);
-  }
+  dispatch_flags(
+      [&](auto aniso, auto plastic, auto fracture) {
+        bond_pass<decltype(aniso)::value, decltype(plastic)::value, decltype(fracture)::value>(w, y, force);
+      },
+      w.any_anisotropic, w.any_plastic, w.any_fracture);
 }
 
 SystemDecl bond_pass_system(WorldState& w) {

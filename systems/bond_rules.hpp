@@ -15,7 +15,10 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <type_traits>
+#include <vector>
 
+#include "components/bonds.hpp"
 #include "components/math.hpp"
 #include "components/particles.hpp"
 
@@ -73,7 +76,7 @@ inline double weighted_length(double r, double horizon, double weight) {
   else return r;
 }
 
-// Plasticity, Eq 11–16 with notes.md's consistent return, for one side of a bond:
+// Plasticity, Eq 11–16 with the consistent return of systems/README.md §3, for one side of a bond:
 //   A_dev = k (e^d − e^p),  k = ω b4,  e^d = e − βθΛ                          (Eq 12, trial)
 //   |A_dev| > A_c = √(2Ψ0):  e^p ← e^p + (A_dev − A_c sign A_dev)/k            (Eq 13–15)
 //   e^p ← clamp(e^p, −γ, γ),  γ = cap                                           (Eq 16)
@@ -92,7 +95,7 @@ inline double plastic_return(double deviatoric_extension, double plastic_extensi
   return std::min(std::max(next, -cap), cap);
 }
 
-// Fracture, Eq 18–19 as notes.md reads them, for one side of a bond in tension (e > 0):
+// Fracture, Eq 18–19 as systems/README.md §5 reads them, for one side of a bond in tension (e > 0):
 //   (e − e^p)/(|ξ| ω) > (1 + αφ) s_c   ⇔   e − e^p > B |ξ|/ℓ,   B = (1 + αφ) s_c δ
 // (|ξ|/ℓ = 1 for the isotropic weight, so the test is (e − e^p)/δ > (1 + αφ) s_c). B is the
 // particle's break extension, refreshed once per step from its damage; B = ∞ never breaks.
@@ -178,6 +181,70 @@ inline T sum_lanes(const T (&lanes)[kBondLanes]) {
   T total = lanes[0];
   for (int l = 1; l < kBondLanes; ++l) total += lanes[l];
   return total;
+}
+
+// The bond arrays (components/bonds.hpp, CSR) and the positions as the raw streams the lane kernels
+// read, unpacked here once for dilatation.cpp, elastic_force.cpp and bond_pass.cpp. Raw pointers, so
+// that a kernel can copy them into its task's locals: a store through a uint8_t* (alive) may alias
+// anything in memory (char aliasing), and pointers the compiler had to read from memory would be
+// reloaded after every such store. kMutable gives writable e^p and alive streams (the bond pass).
+// Shapes: offsets particles + 1; neighbor, reverse, reference_length, weight, plastic,
+// plastic_mirror, alive one entry per directed bond k (CSR: particle i owns [offsets[i],
+// offsets[i+1])); y and x 3 doubles per particle (current and reference positions, x y z).
+template <bool kMutable>
+struct BondStreams {
+  using Real = std::conditional_t<kMutable, double, const double>;
+  using Flag = std::conditional_t<kMutable, std::uint8_t, const std::uint8_t>;
+  const std::uint32_t* offsets;
+  const std::uint32_t* neighbor;
+  const std::uint32_t* reverse;
+  const double* reference_length;
+  const double* weight;
+  Real* plastic;         // e^p_ij
+  Real* plastic_mirror;  // e^p_ji (Bonds::plastic_extension_mirror)
+  Flag* alive;
+  const double* y;
+  const double* x;
+
+  // Particle i's end of its bonds, in component form. A lane then forms its bond's vectors as
+  // dy = y[3j + c] − o.y_c and ξ = x[3j + c] − o.x_c in the kernel's own body: returned from a helper
+  // (a struct or output references), the same arithmetic compiled the plastic bond pass with ~35 more
+  // register moves per particle (GCC 12; the SIMD bond loop itself unchanged), so it stays written out.
+  struct Origin {
+    double yx, yy, yz, xx, xy, xz;
+  };
+  Origin origin(std::size_t i) const {
+    return {y[3 * i], y[3 * i + 1], y[3 * i + 2], x[3 * i], x[3 * i + 1], x[3 * i + 2]};
+  }
+};
+// From Bonds (writable streams) or const Bonds (read-only), positions y and reference positions x.
+template <class BondArrays>
+inline BondStreams<!std::is_const_v<BondArrays>> bond_streams(BondArrays& b, const std::vector<Vec3>& y,
+                                                                const std::vector<Vec3>& x) {
+  static_assert(std::is_same_v<std::remove_const_t<BondArrays>, Bonds>);
+  return {b.offsets.data(), b.neighbor.data(), b.reverse.data(), b.reference_length.data(), b.weight.data(),
+          b.plastic_extension.data(), b.plastic_extension_mirror.data(), b.alive.data(), y.data()->data(),
+          x.data()->data()};
+}
+
+// Runtime model flags to template flags, written once for every bond kernel: calls
+// kernel(std::bool_constant<f_1>{}, ..., std::bool_constant<f_n>{}) for the runtime values f_1..f_n
+// (e.g. any_anisotropic, any_plastic, any_fracture), so each combination is its own instantiation
+// with the branches on the flags compiled out. Returns what the kernel returns.
+namespace detail {
+template <bool... kSet, class Kernel>
+inline decltype(auto) dispatch_flags(Kernel& kernel) {
+  return kernel(std::bool_constant<kSet>{}...);
+}
+template <bool... kSet, class Kernel, class... Rest>
+inline decltype(auto) dispatch_flags(Kernel& kernel, bool flag, Rest... rest) {
+  if (flag) return dispatch_flags<kSet..., true>(kernel, rest...);
+  return dispatch_flags<kSet..., false>(kernel, rest...);
+}
+}  // namespace detail
+template <class Kernel, class... Flags>
+inline decltype(auto) dispatch_flags(Kernel&& kernel, Flags... flags) {
+  return detail::dispatch_flags<>(kernel, static_cast<bool>(flags)...);
 }
 
 // Eq 19's damage of a particle from its bond counts: φ = 1 − n/N, and broken = N − n.

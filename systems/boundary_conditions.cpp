@@ -1,4 +1,4 @@
-// Boundary condition system (notes.md "What the paper leaves out": anchors, prescribed velocity or
+// Boundary condition system (systems/README.md §8.2, "What the paper leaves out": anchors, prescribed velocity or
 // displacement on a region, with time ramps; needed by Fig. 3, 9, 12, 14, 17).
 // Runs between kick_begin and drift and sets the velocity the drift will use:
 //   anchor:        v = 0 (the particle holds its place)

@@ -1,6 +1,6 @@
 // Contact system: short-range repulsion between particles that are not joined by an alive bond
 // (particles of different bodies, or fragments after fracture), the usual peridynamic practice
-// (notes.md, "What the paper leaves out": contact).
+// (systems/README.md §8.4, "What the paper leaves out").
 //
 // Pair (i, j), r = y_j − y_i, d = |r|, n = r/d, contact distance
 //   d_c = distance_factor·(s_i + s_j)/2,  s = ∛V (a particle's size; ≈ the mean particle spacing),
@@ -9,7 +9,7 @@
 //   normal   f_n = max(0, k·g − c·v_n),  v_n = (v_j − v_i)·n,  c = 2ζ√(k·m_ij),  m_ij = m_i m_j/(m_i+m_j)
 //   friction f_t = min(μ·f_n, ¼·m_ij·|v_t|/dt) along v_t = (v_j − v_i) − v_n n (Coulomb, capped so it
 //            cannot reverse the relative sliding within one step)
-//   force on i: −f_n n + f_t v_t/|v_t|.
+//   force on i: −f_n n + f_t v_t/|v_t|      (the law: contact_law.hpp, shared with projectiles.cpp).
 // Stiffness: k = stiffness_factor·min(m_i, m_j)/dt². One contact spring alone then has
 // ω²dt² = k/m_ij·dt² ≤ 2·stiffness_factor, so with the default 0.05 and the handful of contacts a
 // surface particle has, contact adds only a small fraction to the (ω·dt)² ≤ 4 budget of the explicit
@@ -21,8 +21,8 @@
 // particle has moved more than skin/2 since the last build, relative to the mean motion (a common
 // translation changes no distance), so every pair that can come closer than d_c is in it; a bond
 // that breaks adds its pair (add_broken_pairs) without a rebuild. The build uses a hashed uniform grid
-// (cell = largest d_c + skin, counting sort, stable: particles in a bucket stay in index order) and
-// visits 9 rows of 3 cells in a fixed order. Each particle then gathers the forces on
+// (spatial_grid.hpp; cell = largest d_c + skin, counting sort, stable: particles in a bucket stay in
+// index order) and visits 9 rows of 3 cells in a fixed order. Each particle then gathers the forces on
 // itself from its list (no scatter, no atomics), so the result does not depend on the thread count.
 // Every scalar of the pair term is symmetric in (i, j) and every vector flips sign exactly with r and
 // v_j − v_i, so the force j computes on itself is bit-for-bit the negative of the one i computes:
@@ -38,43 +38,15 @@
 #include <algorithm>
 #include <cmath>
 
+#include "contact_law.hpp"
 #include "parallel.hpp"
+#include "spatial_grid.hpp"
 #include "systems.hpp"
 
 namespace perifx::systems {
 namespace {
 
 constexpr double kSkinFraction = 0.3;     // skin = this × the largest contact distance
-constexpr std::int32_t kCellLimit = (1 << 20) - 2;  // cell coordinates fit 21 bits with their ±1 neighbours
-
-struct Cell {
-  std::int32_t x, y, z;
-};
-
-Cell cell_of(const Vec3& y, double inv_cell) {
-  // Clamp: a particle flung far away must not overflow the key (it then shares a far cell; the
-  // distance test still rejects every false neighbour).
-  auto axis = [&](double v) {
-    return static_cast<std::int32_t>(std::clamp(std::floor(v * inv_cell), double(-kCellLimit), double(kCellLimit)));
-  };
-  return {axis(y.x()), axis(y.y()), axis(y.z())};
-}
-
-std::uint64_t cell_key(const Cell& c) {
-  constexpr std::uint64_t mask = (1u << 21) - 1, bias = 1u << 20;
-  return ((static_cast<std::uint64_t>(c.x + bias) & mask)) | ((static_cast<std::uint64_t>(c.y + bias) & mask) << 21) |
-         ((static_cast<std::uint64_t>(c.z + bias) & mask) << 42);
-}
-
-// Bucket of a cell: x plus a scrambled hash of the row (y, z), so a row's cells x−1..x+1 fall in
-// consecutive buckets and one range of the sorted array holds all three.
-std::uint32_t row_hash(std::int32_t y, std::int32_t z) {
-  return (static_cast<std::uint32_t>(y) * 73856093u) ^ (static_cast<std::uint32_t>(z) * 19349663u);
-}
-std::uint32_t hash_cell(const Cell& c, std::uint32_t mask) {
-  return (static_cast<std::uint32_t>(c.x) + row_hash(c.y, c.z)) & mask;
-}
-
 // Calls visit(j) for every unbonded particle j ≠ i within the grid cell size of i, in a fixed order
 // (9 rows of 3 cells). `stamp` is this (pass, particle)'s unique mark and `marks` the calling
 // thread's row of ContactPairs::bonded_stamp.
@@ -87,35 +59,11 @@ void for_each_candidate(const WorldState& w, std::uint32_t i, std::uint64_t stam
     if (b.alive[k]) marks[b.neighbor[k]] = stamp;
   const Vec3 yi = w.particles.position[i];
   const double reach2 = g.cell * g.cell;
-  const Cell ci = cell_of(yi, 1.0 / g.cell);
-  constexpr std::uint64_t kXMask = (1u << 21) - 1;
-  const std::uint64_t xi_key = cell_key(ci) & kXMask;
-  auto scan = [&](std::uint32_t first, std::uint32_t last, std::uint64_t row_key) {
-    for (std::uint32_t q = first; q < last; ++q) {
-      const std::uint64_t key = g.sorted_key[q];
-      // Same row, and x within one cell (other rows hashed to these buckets are skipped).
-      if ((key & ~kXMask) != row_key) continue;
-      const std::uint64_t xk = key & kXMask;
-      if (xk + 1 < xi_key || xk > xi_key + 1) continue;
-      const std::uint32_t j = g.sorted[q];
-      if (j == i || (g.sorted_position[q] - yi).squaredNorm() >= reach2 || marks[j] == stamp) continue;
-      visit(j);
-    }
-  };
-  for (int dz = -1; dz <= 1; ++dz)
-    for (int dy = -1; dy <= 1; ++dy) {
-      const Cell left = {ci.x - 1, ci.y + dy, ci.z + dz};
-      const std::uint64_t row_key = cell_key(left) & ~kXMask;
-      const std::uint32_t b0 = hash_cell(left, g.mask);
-      if (b0 + 2 <= g.mask) {
-        scan(g.start[b0], g.start[b0 + 3], row_key);
-      } else {  // the row wraps around the end of the table
-        for (std::uint32_t t = 0; t < 3; ++t) {
-          const std::uint32_t bk = (b0 + t) & g.mask;
-          scan(g.start[bk], g.start[bk + 1], row_key);
-        }
-      }
-    }
+  for_each_near(g, yi, [&](std::uint32_t q) {
+    const std::uint32_t j = g.sorted[q];
+    if (j == i || (g.sorted_position[q] - yi).squaredNorm() >= reach2 || marks[j] == stamp) return;
+    visit(j);
+  });
 }
 
 // The calling worker's row of the bonded-partner marks.
@@ -208,22 +156,7 @@ void rebuild_pairs(WorldState& w, std::uint64_t broken_now) {
   auto& pr = c.pairs;
   const auto& p = w.particles;
   const std::size_t n = p.count();
-  const double inv_cell = 1.0 / g.cell;
-  // 1. Cells and buckets (parallel), 2. counting sort (serial, stable, O(n + table)).
-  parallel_for_each(n, [&](std::size_t i) {
-    const Cell cc = cell_of(p.position[i], inv_cell);
-    g.cell_of[i] = cell_key(cc);
-    g.bucket[i] = hash_cell(cc, g.mask);
-  }, 4096);
-  std::fill(g.start.begin(), g.start.end(), 0u);
-  for (std::size_t i = 0; i < n; ++i) ++g.start[g.bucket[i] + 1];
-  for (std::size_t k = 1; k < g.start.size(); ++k) g.start[k] += g.start[k - 1];
-  std::copy(g.start.begin(), g.start.end() - 1, g.cursor.begin());
-  for (std::size_t i = 0; i < n; ++i) g.sorted[g.cursor[g.bucket[i]]++] = static_cast<std::uint32_t>(i);
-  parallel_for_each(n, [&](std::size_t q) {
-    g.sorted_key[q] = g.cell_of[g.sorted[q]];
-    g.sorted_position[q] = p.position[g.sorted[q]];
-  }, 4096);
+  build_grid(g, p.position);  // 1. cells and buckets, 2. counting sort (spatial_grid.cpp)
   // 3. Search, prefix sum, fill: a CSR list in grid-visit order. The search keeps each particle's
   // first kScratchPerParticle candidates; the fill copies them, and searches again only for the rare
   // particle with more. Stamps are fresh for every pass and particle, so a mark left by an earlier
@@ -295,18 +228,7 @@ void setup_contact(WorldState& w) {
   pr.bonded_stamp.assign(pr.stamp_slots * n, 0);
   pr.stamp_base = 0;
   pr.valid = false;
-  auto& g = c.grid;
-  g.cell = c.largest_distance + pr.skin;
-  std::uint32_t table = 1024;
-  while (table < 2 * n) table <<= 1;
-  g.mask = table - 1;
-  g.cell_of.resize(n);
-  g.bucket.resize(n);
-  g.sorted.resize(n);
-  g.sorted_key.resize(n);
-  g.sorted_position.resize(n);
-  g.start.assign(table + 1, 0);
-  g.cursor.assign(table, 0);
+  allocate_grid(c.grid, n, c.largest_distance + pr.skin);
 }
 
 SystemDecl contact_system(WorldState& w) {
@@ -348,19 +270,10 @@ SystemDecl contact_system(WorldState& w) {
                 const double mi = p.mass[i], mj = p.mass[j];
                 const double m_pair = (mi * mj) / (mi + mj);
                 const double k = c.stiffness_factor * std::min(mi, mj) * inv_dt2;
-                const double damp = 2.0 * c.damping_ratio * std::sqrt(k * m_pair);
-                const Vec3 vrel = p.velocity[j] - vi;
-                const double vn = vrel.dot(nrm);
-                const double fn = std::max(0.0, k * (dc - d) - damp * vn);
-                f -= fn * nrm;
-                if (c.friction > 0.0) {
-                  const Vec3 vt = vrel - vn * nrm;
-                  const double vt_len = vt.norm();
-                  if (vt_len > 0.0) {
-                    const double ft = std::min(c.friction * fn, 0.25 * m_pair * vt_len * inv_dt);
-                    f += (ft / vt_len) * vt;
-                  }
-                }
+                const ContactForce cf = contact_force(dc - d, nrm, Vec3(p.velocity[j] - vi), k, m_pair,
+                                                      c.damping_ratio, c.friction, inv_dt);
+                f -= cf.normal * nrm;
+                if (cf.sliding) f += cf.friction;
               }
               w.state.contact_force[i] = f;
             }, 256);

@@ -1,5 +1,5 @@
-// Crack faces system (paper §5.2, notes.md "Only bonds between face-adjacent tetrahedra put their
-// shared triangle into the crack face set").
+// Crack faces system (paper §5.2, systems/README.md §6.4: only bonds between face-adjacent
+// tetrahedra put their shared triangle into the crack face set).
 // Scans the watched face pairs (original face-adjacent tet pairs that are still intact and bonded,
 // ≈2 per tet, one byte load each) for a broken bond; each one found becomes cracked, joins the
 // pending crack faces and this step's `fresh` list, and stops being watched. Faces on the original

@@ -1,15 +1,15 @@
 // Damage system: Eq 19's damage φ_i = 1 − n_i/N_i (n_i alive bonds, N_i bonds at setup, i.e. after
 // initial cracks removed theirs), and broken_bonds_i = N_i − n_i for output. (The plastic measure,
 // mean |e^p|/|ξ|, is an output-only field computed when fields are requested: World::fields.)
-// It runs after fracture. (With the fused bond pass, bond_pass.cpp counts the alive bonds while it
-// decides the breaks, and this system is not scheduled.)
+// It runs after fracture in the tests' separate-systems oracle; the step's fused bond pass
+// (bond_pass.cpp) counts the alive bonds while it decides the breaks instead.
 // Reads:  bond_alive.   Writes: damage (φ, broken_bonds).
 //
-// Fracture-threshold system: the break extension B_i = (1 + α_i φ_i) s_c,i δ_i (Eq 19, notes.md;
+// Fracture-threshold system: the break extension B_i = (1 + α_i φ_i) s_c,i δ_i (Eq 19, systems/README.md §5;
 // see side_exceeds in bond_rules.hpp), ∞ when unbreakable, from the damage just computed; the
 // fracture test of the next step reads it, so that test sees the damage of the start of its step.
 // Reads:  damage.   Writes: fracture_threshold (ParticleState::break_extension).
-// Both are scheduled only when world.any_fracture; setup calls the threshold kernel once.
+// The threshold system is scheduled only when world.any_fracture; setup calls its kernel once.
 #include <cmath>
 
 #include "bond_rules.hpp"

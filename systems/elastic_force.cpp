@@ -1,4 +1,4 @@
-// Elastic (and elastoplastic) force system: Eq 2–4, 8, 10, 12, paired as in notes.md:
+// Elastic (and elastoplastic) force system: Eq 2–4, 8, 10, 12, paired as in systems/README.md §2.1:
 //   f_i = V_i Σ_j ½ (A_ij + A_ji) n_ij V_j,
 //   A_ij = ω_ij (Λ_ij P_i + b4_i (e_ij − e^p_ij)),   P_i = (a4_i − b4_i β_i) θ_i,
 // which is A_dil + A_dev of Eq 4 and Eq 12 (Eq 8 when e^p = 0) with a4 = 4a, b4 = 4b, β = δ/4.
@@ -35,55 +35,32 @@ inline void visit_bonds(const WorldState& w, const std::vector<Vec3>& y, const s
   }
 }
 
-template <class Kernel>
-void dispatch(const WorldState& w, Kernel&& kernel) {
-  if (w.any_anisotropic) {
-    if (w.any_plastic) kernel(std::true_type{}, std::true_type{});
-    else kernel(std::true_type{}, std::false_type{});
-  } else {
-    if (w.any_plastic) kernel(std::false_type{}, std::true_type{});
-    else kernel(std::false_type{}, std::false_type{});
-  }
-}
-
 }  // namespace
 
 void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec, const std::vector<double>& coupling,
                             std::vector<Vec3>& force) {
   // Lane-strided (bond_rules.hpp) with the same per-bond density and summation order as the fused
   // bond pass, so the two give the same bits.
-  const Bonds& b = w.bonds;
-  const std::uint32_t* const offsets = b.offsets.data();
-  const std::uint32_t* const neighbor = b.neighbor.data();
-  const std::uint32_t* const reverse = b.reverse.data();
-  const double* const reference_length = b.reference_length.data();
-  const double* const weight = b.weight.data();
-  const double* const plastic = b.plastic_extension.data();
-  const double* const plastic_mirror = b.plastic_extension_mirror.data();
-  const std::uint8_t* const alive = b.alive.data();
-  const double* const y = y_vec.data()->data();  // 3 doubles per particle
-  const double* const x = w.particles.reference_position.data()->data();
+  const auto bs = bond_streams(w.bonds, y_vec, w.particles.reference_position);
   const double* const volume = w.particles.volume.data();
   const double* const b4 = w.model.b4.data();
   const double* const p = coupling.data();
   double* const out = force.data()->data();
-  dispatch(w, [&](auto aniso, auto plastic_on) {
+  dispatch_flags([&](auto aniso, auto plastic_on) {
     constexpr bool kAnisotropic = decltype(aniso)::value, kPlastic = decltype(plastic_on)::value;
     parallel_for_each(w.particles.count(), [&](std::size_t i) {
-      const double yix = y[3 * i], yiy = y[3 * i + 1], yiz = y[3 * i + 2];
-      const double xix = x[3 * i], xiy = x[3 * i + 1], xiz = x[3 * i + 2];
+      const auto o = bs.origin(i);
       const double p_i = p[i], b4_i = b4[i];
       double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
       auto lane = [=, &fx, &fy, &fz](std::size_t k, int l, std::uint64_t is_alive) {
-        const std::size_t j = neighbor[k];
-        const double dyx = y[3 * j] - yix, dyy = y[3 * j + 1] - yiy, dyz = y[3 * j + 2] - yiz;
+        const std::size_t j = bs.neighbor[k];
+        const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
+        const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
         BondGeometry g;
-        const bool active = bond_geometry(dyx, dyy, dyz, x[3 * j] - xix, x[3 * j + 1] - xiy, x[3 * j + 2] - xiz,
-                                          reference_length[k], g) &
-                            (is_alive != 0);
-        const double w_ij = weight[k];
-        const double w_ji = kAnisotropic ? weight[reverse[k]] : w_ij;
-        const double ep_ij = kPlastic ? plastic[k] : 0.0, ep_ji = kPlastic ? plastic_mirror[k] : 0.0;
+        const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, bs.reference_length[k], g) & (is_alive != 0);
+        const double w_ij = bs.weight[k];
+        const double w_ji = kAnisotropic ? bs.weight[bs.reverse[k]] : w_ij;
+        const double ep_ij = kPlastic ? bs.plastic[k] : 0.0, ep_ji = kPlastic ? bs.plastic_mirror[k] : 0.0;
         const double density =
             paired_force_density<kPlastic>(g, w_ij, w_ji, ep_ij, ep_ji, p_i, b4_i, p[j], b4[j], volume[j]);
         const double c = active ? density : 0.0;
@@ -91,12 +68,12 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec,
         fy[l] += c * dyy;
         fz[l] += c * dyz;
       };
-      for_each_bond_lane(offsets[i], offsets[i + 1], alive, lane, [](std::size_t, int) {});
+      for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
       out[3 * i] = volume[i] * sum_lanes(fx);
       out[3 * i + 1] = volume[i] * sum_lanes(fy);
       out[3 * i + 2] = volume[i] * sum_lanes(fz);
     }, 256);
-  });
+  }, w.any_anisotropic, w.any_plastic);
 }
 
 void compute_virial_stress(const WorldState& w, const std::vector<Vec3>& y, const std::vector<double>& coupling,
@@ -104,7 +81,7 @@ void compute_virial_stress(const WorldState& w, const std::vector<Vec3>& y, cons
   const auto& volume = w.particles.volume;
   const auto& x = w.particles.reference_position;
   stress.resize(w.particles.count());
-  dispatch(w, [&](auto, auto plastic) {
+  dispatch_flags([&](auto plastic) {
     parallel_for_each(w.particles.count(), [&](std::size_t i) {
       Mat3 s_i = Mat3::Zero();
       visit_bonds<decltype(plastic)::value>(
@@ -113,7 +90,7 @@ void compute_virial_stress(const WorldState& w, const std::vector<Vec3>& y, cons
           });
       stress[i] = s_i;
     }, 256);
-  });
+  }, w.any_plastic);
 }
 
 SystemDecl elastic_force_system(WorldState& w) {

@@ -1,4 +1,4 @@
-// Family build (setup, §5.2 and notes.md "Mesh embedding and family").
+// Family build (setup, paper §5.2 and systems/README.md §6.2).
 // Reads:  particles.reference_position, particles.body_id, particles.material_id, model.horizon,
 //         the embedded mesh's face adjacency (mesh rule), scene materials (G, Eq 17).
 // Writes: bonds (offsets, neighbor, reverse, reference_length, weight, alive, plastic_extension(_mirror),
@@ -8,13 +8,14 @@
 // face-adjacent tets whose barycenters all lie within δ of x_i, so bonds never jump a thin gap.
 // Reachability is not symmetric in general (the balls around i and j differ); a bond is one physical
 // link, so the union is kept: i–j is bonded when either finds the other.
-// Distance rule: every particle of the same body within δ.
+// Distance rule: every particle of the same body within δ (found with spatial_grid.hpp).
 #include <oneapi/tbb/enumerable_thread_specific.h>
 
 #include <algorithm>
 #include <cmath>
 
 #include "parallel.hpp"
+#include "spatial_grid.hpp"
 #include "systems.hpp"
 
 namespace perifx::systems {
@@ -22,6 +23,7 @@ namespace {
 
 // Bonds exactly at distance δ (common on structured meshes) are kept despite round-off.
 constexpr double kHorizonSlack = 1e-9;
+constexpr double kGridMargin = 1e-6;
 
 using Lists = std::vector<std::vector<std::uint32_t>>;
 
@@ -66,36 +68,20 @@ Lists families_by_distance(const WorldState& w) {
   Lists lists(n);
   if (n == 0) return lists;
   double cell = 0.0;
-  Vec3 lo = x[0];
-  for (std::size_t i = 0; i < n; ++i) {
-    cell = std::max(cell, w.model.horizon[i] * (1.0 + kHorizonSlack));
-    lo = lo.cwiseMin(x[i]);
-  }
-  // Sorted (cell key, particle) pairs; a cell's particles are found by binary search.
-  auto coord = [&](const Vec3& p, int a) { return static_cast<std::int64_t>(std::floor((p[a] - lo[a]) / cell)); };
-  auto key = [](std::int64_t cx, std::int64_t cy, std::int64_t cz) {
-    return (static_cast<std::uint64_t>(cx) << 42) | (static_cast<std::uint64_t>(cy) << 21) | static_cast<std::uint64_t>(cz);
-  };
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> cells(n);
-  for (std::size_t i = 0; i < n; ++i)
-    cells[i] = {key(coord(x[i], 0), coord(x[i], 1), coord(x[i], 2)), static_cast<std::uint32_t>(i)};
-  std::sort(cells.begin(), cells.end());
+  for (std::size_t i = 0; i < n; ++i) cell = std::max(cell, w.model.horizon[i] * (1.0 + kHorizonSlack));
+  // Every pair within reach is in neighbouring cells; the margin keeps that true through the
+  // rounding of the cell coordinates (the exact test below decides, so the margin changes nothing).
+  SpatialGrid grid;
+  allocate_grid(grid, n, cell * (1.0 + kGridMargin));
+  build_grid(grid, x);
   parallel_for_each(n, [&](std::size_t i) {
     const double reach = w.model.horizon[i] * (1.0 + kHorizonSlack);
-    const std::int64_t c[3] = {coord(x[i], 0), coord(x[i], 1), coord(x[i], 2)};
     auto& out = lists[i];
-    for (std::int64_t dx = -1; dx <= 1; ++dx)
-      for (std::int64_t dy = -1; dy <= 1; ++dy)
-        for (std::int64_t dz = -1; dz <= 1; ++dz) {
-          if (c[0] + dx < 0 || c[1] + dy < 0 || c[2] + dz < 0) continue;
-          const std::uint64_t k = key(c[0] + dx, c[1] + dy, c[2] + dz);
-          auto it = std::lower_bound(cells.begin(), cells.end(), std::make_pair(k, std::uint32_t(0)));
-          for (; it != cells.end() && it->first == k; ++it) {
-            const std::uint32_t j = it->second;
-            if (j == i || w.particles.body_id[j] != w.particles.body_id[i]) continue;
-            if ((x[j] - x[i]).squaredNorm() <= reach * reach) out.push_back(j);
-          }
-        }
+    for_each_near(grid, x[i], [&](std::uint32_t q) {
+      const std::uint32_t j = grid.sorted[q];
+      if (j == i || w.particles.body_id[j] != w.particles.body_id[i]) return;
+      if ((x[j] - x[i]).squaredNorm() <= reach * reach) out.push_back(j);
+    });
     std::sort(out.begin(), out.end());
   }, 64);
   return lists;

@@ -25,16 +25,8 @@ using FieldRegistry = std::vector<FieldEntry>;
 // A registry entry; `bind` as above.
 inline FieldEntry make_field(const char* name, FieldType type, int components, const char* unit, const char* doc,
                              std::function<void(WorldState&, FieldView&)> bind, bool derived = false) {
-  FieldEntry e;
-  e.info.name = name;
-  e.info.type = type;
-  e.info.components = components;
-  e.info.location = FieldLocation::particle;
-  e.info.unit = unit;
-  e.info.doc = doc;
-  e.bind = std::move(bind);
-  e.derived = derived;
-  return e;
+  return FieldEntry{FieldView{name, type, components, FieldLocation::particle, nullptr, 0, unit, doc}, std::move(bind),
+                    derived};
 }
 
 // Points a view at a whole per-particle array.

@@ -1,4 +1,4 @@
-// Fracture system: Eq 18–19 as notes.md ("Fracture — one decision") reads them.
+// Fracture system: Eq 18–19 as systems/README.md §5 reads them.
 // For the directed bond i→j in tension, e = |y_j − y_i| − |ξ| > 0 (compression never breaks):
 //   side i exceeds:  (e − e^p_ij)/(|ξ| ω_ij) > (1 + α_i φ_i) s_c,i
 // and the same for side j with e^p_ji, ω_ji and j's damage and material (side_breaks in
@@ -10,9 +10,8 @@
 // tests (bond_rules.hpp), so j's loop gets the same answer for the mirror slot, and each loop writes
 // only its own alive[k]: no atomics, no dependence on thread count.
 // Reads:  position, plastic_extension, fracture_threshold, bond_alive.   Writes: bond_alive.
-// Runs at the end of the step (after kick_end), only when world.any_fracture and the scene runs the
-// bond systems separately (otherwise bond_pass.cpp applies the same test in its fused pass, on the
-// same positions and plastic extensions).
+// Not scheduled: bond_pass.cpp applies the same test in its fused pass, on the same positions and
+// plastic extensions; this separate system (after kick_end) is the tests' oracle for it.
 #include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
@@ -39,7 +38,8 @@ bool breaks(const WorldState& w, const std::vector<Vec3>& y, std::uint32_t i, st
 }  // namespace
 
 bool bond_breaks(const WorldState& w, const std::vector<Vec3>& y, std::uint32_t owner, std::uint32_t k) {
-  return w.any_anisotropic ? breaks<true>(w, y, owner, k) : breaks<false>(w, y, owner, k);
+  return dispatch_flags([&](auto aniso) { return breaks<decltype(aniso)::value>(w, y, owner, k); },
+                        w.any_anisotropic);
 }
 
 void update_fracture(WorldState& w, const std::vector<Vec3>& y) {

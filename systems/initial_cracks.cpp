@@ -1,4 +1,4 @@
-// Initial cracks (paper Fig. 17, notes.md "Initial cracks"): a bond whose reference segment
+// Initial cracks (paper Fig. 17, systems/README.md §6.3): a bond whose reference segment
 // x_i → x_j crosses a crack polygon is not created. Runs once at setup, right after the family
 // build and before the model constants, so N_i (Eq 19), the dilatation scale and the discrete
 // normalization all see only the bonds that exist.

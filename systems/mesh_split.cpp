@@ -1,4 +1,4 @@
-// Mesh split system (paper §5.2, notes.md "Vertex splitting"): opens the crack faces that arrived
+// Mesh split system (paper §5.2, systems/README.md §6.4): opens the crack faces that arrived
 // this step.
 // For each vertex of a fresh crack face, in increasing vertex index order: its incident tets (found
 // among the original incidence of origin[v], keeping the slots that still hold v) are grouped by

@@ -1,5 +1,5 @@
 // Per-particle model constants (setup). Eq 6 (θ scale), Eq 10 (a, b) and Eq 9 (β = δ/4), or their
-// discrete normalization (notes.md): with the particle's own family sums
+// discrete normalization (systems/README.md §2.4): with the particle's own family sums
 //   m_i = Σ_j ω_ij |ξ_ij| V_j,   q_i = Σ_j ω_ij |ξ_ij|² V_j,
 // θ_i = (3/m_i) Σ ω e Λ V gives θ = 3ε for a uniform stretch ε exactly, and
 //   a = 3κ/(2 m_i),  β = q_i/(3 m_i)

@@ -1,4 +1,4 @@
-// Plasticity system: Eq 11–16 with the consistent return of notes.md ("Plasticity — one decision").
+// Plasticity system: Eq 11–16 with the consistent return of systems/README.md §3.
 // Per directed alive bond k = i→j (e^p_ij is a state of particle i on that bond):
 //   e, Λ   from the positions                                                   (Eq 7, bond_geometry)
 //   A_dev  = ω_ij b4_i (e − β_i Λ θ_i − e^p_ij)  = 4 ω b (e^d − e^p)            (Eq 12, trial)
@@ -10,8 +10,8 @@
 // so the copies stay bit-identical and every slot is written only by its owner: in place, no
 // atomics, independent of thread count. Ψ0 = ∞ never yields.
 // Reads:  position, dilatation, plastic_extension, bond_alive.   Writes: plastic_extension.
-// Scheduled after dilatation and before elastic_force, only when world.any_plastic and the scene
-// runs the bond systems separately (otherwise bond_pass.cpp applies the same rule in its fused pass).
+// Not scheduled: bond_pass.cpp applies the same rule in its fused pass; this separate system (after
+// dilatation, before elastic_force) is the tests' oracle for it.
 #include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "field_registry.hpp"
@@ -47,8 +47,7 @@ void plastic_pass(WorldState& w, const std::vector<Vec3>& y) {
 }  // namespace
 
 void update_plastic_extension(WorldState& w, const std::vector<Vec3>& y) {
-  if (w.any_anisotropic) plastic_pass<true>(w, y);
-  else plastic_pass<false>(w, y);
+  dispatch_flags([&](auto aniso) { plastic_pass<decltype(aniso)::value>(w, y); }, w.any_anisotropic);
 }
 
 SystemDecl plasticity_system(WorldState& w) {

@@ -9,7 +9,8 @@
 // (v_s = v_c + ω × R n):
 //   f_n = max(0, k g − c_d v_n),  k = stiffness_factor·m_i/dt²,  c_d = 2ζ√(k m_ip), m_ip = m_i M/(m_i + M)
 //   friction f_t = min(μ f_n, ¼ m_ip |v_t|/dt) against the sliding,
-// from the scene's contact settings (contact.cpp explains the stiffness choice). The particle gets
+// from the scene's contact settings (contact.cpp explains the stiffness choice; the law is
+// contact_law.hpp, shared with particle–particle contact). The particle gets
 // +f (added to contact_force); the projectile gets −Σ_i f_i and the torque Σ_i R n_i × (−f_i), summed
 // serially in particle index order: deterministic, and momentum is exchanged exactly pair by pair.
 // Projectiles do not touch each other or the kinematic colliders.
@@ -18,6 +19,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "contact_law.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
 
@@ -89,16 +91,11 @@ SystemDecl projectile_contact_system(WorldState& w) {
                 const Vec3 arm = pr.radius * nrm;
                 const double m_pair = mi * pr.mass / (mi + pr.mass);
                 const double kk = c.stiffness_factor * mi * inv_dt2;
-                const double damp = 2.0 * c.damping_ratio * std::sqrt(kk * m_pair);
                 const Vec3 vrel = p.velocity[i] - (pr.velocity + pr.angular_velocity.cross(arm));
-                const double vn = vrel.dot(nrm);
-                const double fn = std::max(0.0, kk * (contact - d) - damp * vn);
-                Vec3 f = fn * nrm;
-                if (pr.friction > 0.0) {
-                  const Vec3 vt = vrel - vn * nrm;
-                  const double vt_len = vt.norm();
-                  if (vt_len > 0.0) f -= (std::min(pr.friction * fn, 0.25 * m_pair * vt_len * inv_dt) / vt_len) * vt;
-                }
+                const ContactForce cf =
+                    contact_force(contact - d, nrm, vrel, kk, m_pair, c.damping_ratio, pr.friction, inv_dt);
+                Vec3 f = cf.normal * nrm;
+                if (cf.sliding) f -= cf.friction;
                 f_out = f;
                 t_out = arm.cross(Vec3(-f));
                 total += f;

@@ -1,6 +1,8 @@
 // Every system of perifx and the kernels they wrap. One .cpp per system; each file's header comment
 // names the paper's equations it implements (systems/README.md) and the components it reads and
 // writes. The step's systems and their order are listed once, in pipeline.cpp.
+// The separate systems (plasticity, elastic_force, fracture, damage) are the test oracle for bond_pass
+// (same bits; tests/systems/test_fracture.cpp); the step itself does not use them.
 #pragma once
 #include <vector>
 
@@ -11,7 +13,7 @@ namespace perifx::systems {
 
 // ---- setup (run once, not part of the step graph) ----
 // family_build.cpp: families and bond data from reference positions, horizons and, for the mesh
-// rule, the face adjacency of the embedded tet mesh (notes.md, §5.2 "mesh connectivity").
+// rule, the face adjacency of the embedded tet mesh (paper §5.2, systems/README.md §6.2).
 void build_families(WorldState& world, const std::vector<std::array<std::int32_t, 4>>& tet_face_neighbors);
 // initial_cracks.cpp: removes the bonds whose reference segment crosses a crack polygon (both
 // directions); returns the number of directed bonds removed.
@@ -31,7 +33,7 @@ void embed_vertex(WorldState& world, std::uint32_t v, const std::vector<std::uin
 // θ_i (Eq 6) and P_i for positions y; theta and coupling sized particle count.
 void compute_dilatation(const WorldState& world, const std::vector<Vec3>& y, std::vector<double>& theta,
                         std::vector<double>& coupling);
-// Internal force on every particle (Eq 2–4, 8–10/12, paired as in notes.md), N.
+// Internal force on every particle (Eq 2–4, 8–10/12, paired as in systems/README.md §2.1), N.
 void compute_internal_force(const WorldState& world, const std::vector<Vec3>& y,
                             const std::vector<double>& coupling, std::vector<Vec3>& force);
 // Virial stress per particle from its own force state (the state-based stress σ = ∫ T⟨ξ⟩ ⊗ ξ dV):
@@ -45,7 +47,7 @@ void compute_virial_stress(const WorldState& world, const std::vector<Vec3>& y,
 // copy), for positions y and the dilatations in world.state.
 void update_plastic_extension(WorldState& world, const std::vector<Vec3>& y);
 // fracture.cpp: the symmetric break predicate of the physical bond containing directed bond k of
-// particle `owner` (Eq 18–19, notes.md), and the pass that applies it to every alive bond.
+// particle `owner` (Eq 18–19, systems/README.md §5), and the pass that applies it to every alive bond.
 bool bond_breaks(const WorldState& world, const std::vector<Vec3>& y, std::uint32_t owner, std::uint32_t k);
 void update_fracture(WorldState& world, const std::vector<Vec3>& y);
 // damage.cpp: φ and broken_bonds per particle from the bonds; fracture thresholds
@@ -79,15 +81,15 @@ SystemDecl boundary_condition_system(WorldState& world);
 SystemDecl drift_system(WorldState& world);
 SystemDecl collider_system(WorldState& world);
 SystemDecl dilatation_system(WorldState& world);
-SystemDecl elastic_force_system(WorldState& world);
+SystemDecl elastic_force_system(WorldState& world);  // test oracle for bond_pass
 SystemDecl external_load_system(WorldState& world);
 SystemDecl kick_end_system(WorldState& world);
 SystemDecl contact_system(WorldState& world);
 SystemDecl projectile_drift_system(WorldState& world);
 SystemDecl projectile_contact_system(WorldState& world);
-SystemDecl plasticity_system(WorldState& world);
-SystemDecl fracture_system(WorldState& world);
-SystemDecl damage_system(WorldState& world);
+SystemDecl plasticity_system(WorldState& world);  // test oracle for bond_pass
+SystemDecl fracture_system(WorldState& world);  // test oracle for bond_pass
+SystemDecl damage_system(WorldState& world);  // test oracle for bond_pass
 SystemDecl fracture_threshold_system(WorldState& world);
 SystemDecl bond_pass_system(WorldState& world);  // fused plasticity + elastic_force + fracture + damage
 SystemDecl crack_face_system(WorldState& world);

@@ -184,6 +184,9 @@ int cmd_info(const Args& a) {
             << mem.bytes_per_bond << " B each), mesh " << human_bytes(double(mem.mesh_bytes)) << ", contact "
             << human_bytes(double(mem.contact_bytes)) << ", other " << human_bytes(double(mem.other_bytes))
             << "; total " << human_bytes(double(mem.total_bytes)) << "\n";
+  std::cout << "fields          ";
+  for (const auto& f : perifx::World::field_catalog()) std::cout << " " << f.name << " [" << f.unit << "]";
+  std::cout << "\n";
   std::cout << "threads          " << world.threads() << "\n";
   const bool ok = report_time_step(world, std::cout);
   std::cout << "schedule\n" << world.schedule();

@@ -12,6 +12,7 @@
 #include <Eigen/Geometry>  // cross()
 
 #include "geometry/mesh_checks.hpp"
+#include "systems/union_find.hpp"
 
 namespace perifx::geometry::detail {
 
@@ -63,25 +64,15 @@ void require_one_piece(const TetMesh& mesh, const std::string& source) {
   // Pieces are groups of tets linked through shared vertices. A tet hanging on by an edge or a
   // vertex (voxel meshes have some) still belongs to the body: distance-based bonds reach across;
   // a piece that shares no vertex at all is a separate object.
-  std::vector<std::uint32_t> parent(mesh.vertices.size());
-  for (std::size_t v = 0; v < parent.size(); ++v) parent[v] = static_cast<std::uint32_t>(v);
-  auto root = [&](std::uint32_t v) {
-    while (parent[v] != v) {
-      parent[v] = parent[parent[v]];
-      v = parent[v];
-    }
-    return v;
-  };
+  std::vector<std::uint32_t> parent;
+  systems::UnionFind sets(parent, mesh.vertices.size());
   for (const auto& t : mesh.tets) {
-    for (std::size_t i = 1; i < 4; ++i) {
-      const std::uint32_t a = root(t[0]), b = root(t[i]);
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    }
+    for (std::size_t i = 1; i < 4; ++i) sets.unite(t[0], t[i]);
   }
   std::vector<std::uint32_t> piece_of_root(mesh.vertices.size(), UINT32_MAX);
   std::vector<std::size_t> sizes;
   for (const auto& t : mesh.tets) {
-    const std::uint32_t r = root(t[0]);
+    const std::uint32_t r = sets.find(t[0]);
     if (piece_of_root[r] == UINT32_MAX) {
       piece_of_root[r] = static_cast<std::uint32_t>(sizes.size());
       sizes.push_back(0);

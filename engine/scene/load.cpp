@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "perifx/scene.hpp"
+#include "systems/field_registry.hpp"
 #include "scene/schema.hpp"
 
 namespace fs = std::filesystem;
@@ -116,7 +117,6 @@ class Converter {
 
     s.normalization = j["model"]["normalization"] == "paper" ? Normalization::paper : Normalization::discrete;
     s.family = j["model"]["family"] == "mesh" ? FamilyRule::mesh : FamilyRule::distance;
-    s.fuse_bond_systems = j["model"]["fuse_bond_systems"].get<bool>();
     {
       const std::string solver = j["model"]["solver"].get<std::string>();
       s.solver = solver == "fem_linear"      ? Solver::fem_linear
@@ -175,6 +175,19 @@ class Converter {
     s.output.surface_vtp = has_format("surface_vtp");
     s.output.tets_vtu = has_format("tets_vtu");
     s.output.fields = o["fields"].get<std::vector<std::string>>();
+    // Field names come from the systems' registry (systems/field_registry.hpp): checked here, once,
+    // so `perifx check` catches a misspelt field before any meshing.
+    const auto known = systems::step_fields();
+    for (std::size_t k = 0; k < s.output.fields.size(); ++k) {
+      const std::string& name = s.output.fields[k];
+      const bool found = std::any_of(known.begin(), known.end(), [&](const auto& f) { return f.info.name == name; });
+      if (!found) {
+        std::string names;
+        for (const auto& f : known) names += (names.empty() ? "" : ", ") + f.info.name;
+        fail("/output/fields/" + std::to_string(k), "unknown particle field (got \"" + name.substr(0, 64) +
+                                                        "\"; expected one of " + names + ")");
+      }
+    }
     return s;
   }
 

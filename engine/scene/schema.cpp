@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "perifx/scene.hpp"
+#include "systems/field_registry.hpp"
 
 namespace perifx::scene::detail {
 
@@ -230,10 +231,6 @@ Key build_spec() {
                  "on the same tet mesh (linear or corotated linear elasticity, explicit, lumped mass; "
                  "particles are the mesh vertices; elastic materials only, no contact or initial cracks). "
                  "`perifx compare` maps the two onto each other.").def("peridynamics"),
-          key("fuse_bond_systems", Type::boolean,
-              "Run plasticity, the elastic force, the fracture test and damage as one pass over the bonds "
-              "(fast); false runs them as separate systems. Both give the same results bit for bit; the "
-              "separate form is for debugging and profiling.").def(true),
       }).def(Json::object()),
       material.at_least(1).req(),
       body,
@@ -252,8 +249,7 @@ Key build_spec() {
                   "tets.NNNN.vtu + tets.pvd (per-tet damage and fragment). When `formats` is not given and "
                   "a material has a finite critical_stretch, `obj` and `surface_ply` are added to the default.")
               .at_least(1).def(Json::array({"vtu", "ply"})),
-          strings("fields", {}, "Particle fields to write; empty = all. Names are checked by the "
-                                "engine, not here.").def(Json::array()),
+          strings("fields", {}, "Particle fields to write; empty = all. Names: see Particle fields below.").def(Json::array()),
       }).def(Json::object()),
   });
 }
@@ -790,6 +786,15 @@ material name, `<k>` for an array index.
     md << "\n## " << k.name << "\n\n";
     table_header(md);
     rows(md, k, "/" + k.name);
+  }
+  // The fields list comes from the systems that register them (systems/field_registry.hpp).
+  md << "\n## Particle fields\n\nWhat `output.fields` may name (all of them when it is empty), in the order they are "
+        "written. Vectors have 3 components.\n\n| Field | Type | Components | Unit | Meaning |\n|---|---|---|---|---|\n";
+  for (const auto& f : systems::step_fields()) {
+    const char* type = f.info.type == FieldType::f64 ? "float64" : f.info.type == FieldType::f32 ? "float32"
+                     : f.info.type == FieldType::u32 ? "uint32" : f.info.type == FieldType::u16 ? "uint16" : "uint8";
+    md << "| `" << f.info.name << "` | " << type << " | " << f.info.components << " | " << f.info.unit << " | "
+       << f.info.doc << (f.derived ? " (derived on output)" : "") << " |\n";
   }
   return md.str();
 }

@@ -1,4 +1,4 @@
-// Elastic model checks against numbers the physics dictates (notes.md "Dilatation", "Elastic constants").
+// Elastic model checks against numbers the physics dictates (systems/README.md §2.2 and §2.4).
 #include <doctest/doctest.h>
 
 #include <Eigen/Geometry>

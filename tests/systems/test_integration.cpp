@@ -1,4 +1,4 @@
-// Conservation laws of the paired force and the velocity-Verlet integrator (notes.md "Equation of motion").
+// Conservation laws of the paired force and the velocity-Verlet integrator (systems/README.md §2.1 and §7).
 #include <doctest/doctest.h>
 
 #include "support.hpp"

@@ -1,4 +1,4 @@
-// Plasticity (Eq 11–16, notes.md consistent return): the kernel on hand-driven positions, and a bar
+// Plasticity (Eq 11–16, consistent return of systems/README.md §3): the kernel on hand-driven positions, and a bar
 // stretched past yield and released.
 #include <doctest/doctest.h>
 

@@ -4,7 +4,7 @@ paper's Table 1) and <name>.preview.json (<= 3e4 particles, < 2 min on 2 cores).
 
     python3 assets/scenes/paper/make_paper_scenes.py
 
-Values come from /work/shared/paper/table1.md (kappa, mu in kPa -> x1e3 Pa). Choices that the paper
+Values come from the paper's Table 1 (restated in assets/report/table1.md) (kappa, mu in kPa -> x1e3 Pa). Choices that the paper
 does not give (object sizes, speeds, boundary conditions) are ours and are stated in each
 description. Two resolution rules used throughout:
 

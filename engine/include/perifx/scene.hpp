@@ -13,11 +13,11 @@
 
 namespace perifx::scene {
 
-enum class Normalization { paper, discrete };  // notes.md: paper constants, or per-particle discrete sums
-enum class FamilyRule { mesh, distance };
+enum class Normalization { paper, discrete };  // systems/README.md §2.4: paper constants, or per-particle discrete sums
+enum class FamilyRule { mesh, distance };  // systems/README.md §6.2: distance + face-connectivity, or distance only
 // peridynamics: the paper's model (particles at tet barycenters). fem_*: reference FEM on the same
 // tet mesh, particles at the mesh vertices (components/fem.hpp).
-enum class Solver { peridynamics, fem_linear, fem_corotated };      // notes.md: distance + face-connectivity, or distance only
+enum class Solver { peridynamics, fem_linear, fem_corotated };
 
 struct Material {
   std::string name;
@@ -27,7 +27,7 @@ struct Material {
   double yield_energy = kInfinity;     // Ψ0 (Eq 13); ∞ = purely elastic
   double plastic_cap_ratio = 0.0;      // γ/|ξ| (Eq 16)
   double critical_stretch = kInfinity; // s_c (Eq 19); ∞ = unbreakable
-  double damage_alpha = 0.0;           // α (Eq 19, notes.md reading)
+  double damage_alpha = 0.0;           // α (Eq 19, systems/README.md §5 reading)
   Mat3 anisotropy = Mat3::Identity();  // G (Eq 17)
   double damping = 0.0;                // mass-proportional velocity damping, 1/s (0 = none)
 };
@@ -165,7 +165,6 @@ struct Scene {
   Normalization normalization = Normalization::paper;
   FamilyRule family = FamilyRule::mesh;
   Solver solver = Solver::peridynamics;
-  bool fuse_bond_systems = true;       // plasticity + force + fracture + damage in one bond pass
   std::vector<Material> materials;
   std::vector<Body> bodies;
   std::vector<BoundaryCondition> boundary_conditions;

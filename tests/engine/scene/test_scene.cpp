@@ -518,3 +518,14 @@ void check_spec(const detail::Key& k, const std::string& path) {
 }  // namespace
 
 TEST_CASE("scene: the spec table is self-consistent") { check_spec(detail::scene_spec(), ""); }
+
+TEST_CASE("scene: output field names are checked against the systems' field registry") {
+  Json j = minimal();
+  j["output"]["fields"] = Json::array({"velocity", "damag"});
+  const std::string msg = error_in(j);
+  CHECK_HAS(msg, "cases.json: /output/fields/1: unknown particle field (got \"damag\"");
+  CHECK_HAS(msg, "expected one of position, velocity, displacement");
+  CHECK(msg.find('\n') == std::string::npos);
+  j["output"]["fields"] = Json::array({"velocity", "damage", "fragment_id"});
+  CHECK(error_in(j) == "<no error>");
+}

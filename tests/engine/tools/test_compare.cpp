@@ -1,4 +1,4 @@
-// perifx compare (engine/compare.cpp): identical runs give exactly zero, a peridynamic run maps onto
+// perifx compare (engine/tools/compare.cpp): identical runs give exactly zero, a peridynamic run maps onto
 // an FEM run of the same scene through the tet barycenters, an FEM run of a different (finer) mesh
 // is interpolated at the other run's points, two PD runs of different meshes are refused.
 #include <doctest/doctest.h>

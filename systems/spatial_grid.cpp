@@ -1,0 +1,44 @@
+// Spatial hash grid: setup sizing and the build (spatial_grid.hpp explains the layout).
+#include "spatial_grid.hpp"
+
+#include "parallel.hpp"
+
+namespace perifx::systems {
+
+void allocate_grid(SpatialGrid& g, std::size_t n, double cell_edge) {
+  auto& [cell, mask, cell_of, bucket, start, cursor, sorted, sorted_key, sorted_position] = g;
+  cell = cell_edge;
+  std::uint32_t table = 1024;
+  while (table < 2 * n) table <<= 1;
+  mask = table - 1;
+  cell_of.resize(n);
+  bucket.resize(n);
+  sorted.resize(n);
+  sorted_key.resize(n);
+  sorted_position.resize(n);
+  start.assign(table + 1, 0);
+  cursor.assign(table, 0);
+}
+
+void build_grid(SpatialGrid& g, const std::vector<Vec3>& points) {
+  auto& [cell, mask, cell_of, bucket, start, cursor, sorted, sorted_key, sorted_position] = g;
+  const std::size_t n = sorted.size();
+  const double inv_cell = 1.0 / cell;
+  // 1. Cells and buckets (parallel), 2. counting sort (serial, stable, O(n + table)).
+  parallel_for_each(n, [&](std::size_t i) {
+    const Cell c = cell_at(points[i], inv_cell);
+    cell_of[i] = key(c);
+    bucket[i] = hash(c, mask);
+  }, 4096);
+  std::fill(start.begin(), start.end(), 0u);
+  for (std::size_t i = 0; i < n; ++i) ++start[bucket[i] + 1];
+  for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+  std::copy(start.begin(), start.end() - 1, cursor.begin());
+  for (std::size_t i = 0; i < n; ++i) sorted[cursor[bucket[i]]++] = static_cast<std::uint32_t>(i);
+  parallel_for_each(n, [&](std::size_t q) {
+    sorted_key[q] = cell_of[sorted[q]];
+    sorted_position[q] = points[sorted[q]];
+  }, 4096);
+}
+
+}  // namespace perifx::systems
