@@ -793,8 +793,10 @@ material name, `<k>` for an array index.
   for (const auto& f : systems::step_fields()) {
     const char* type = f.info.type == FieldType::f64 ? "float64" : f.info.type == FieldType::f32 ? "float32"
                      : f.info.type == FieldType::u32 ? "uint32" : f.info.type == FieldType::u16 ? "uint16" : "uint8";
+    std::string doc;
+    for (char c : f.info.doc) doc += c == '|' ? std::string("\\|") : std::string(1, c);  // markdown cell
     md << "| `" << f.info.name << "` | " << type << " | " << f.info.components << " | " << f.info.unit << " | "
-       << f.info.doc << (f.derived ? " (derived on output)" : "") << " |\n";
+       << doc << (f.derived ? " (derived on output)" : "") << " |\n";
   }
   return md.str();
 }
