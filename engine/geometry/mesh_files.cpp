@@ -23,11 +23,7 @@ namespace {
 // Runs an io reader; its message (file, line, problem) becomes a GeometryError unchanged.
 template <class Read>
 auto reading(Read&& read) {
-  try {
-    return read();
-  } catch (const io::ReadError& e) {
-    throw GeometryError(e.what());
-  }
+  return io::rethrow_as<io::ReadError, GeometryError>(std::forward<Read>(read));
 }
 
 // Orients the tets of a file (flipping negative ones is lossless: writers differ in convention) and

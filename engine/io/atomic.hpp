@@ -29,4 +29,15 @@ void write_atomic(const std::filesystem::path& target, const std::function<void(
 // "<kind> file '<path>' does not exist", "cannot open <kind> file '<path>'".
 std::string read_file(const std::filesystem::path& path, const std::string& kind);
 
+// Runs `read` and turns a `From` error into a `To` error with the same message (each layer reports
+// reading failures with its own error type; the message, which names the file, stays as it is).
+template <class From, class To, class Read>
+auto rethrow_as(Read&& read) {
+  try {
+    return read();
+  } catch (const From& e) {
+    throw To(e.what());
+  }
+}
+
 }  // namespace perifx::io

@@ -26,11 +26,7 @@ namespace {
 // Runs a format reader; its ReadError (which names the file) becomes a RunDirError.
 template <class Read>
 auto reading(Read&& read) {
-  try {
-    return read();
-  } catch (const ReadError& e) {
-    throw RunDirError(e.what());
-  }
+  return io::rethrow_as<ReadError, RunDirError>(std::forward<Read>(read));
 }
 
 std::uint32_t as_index(double v) { return v < 0 ? 0u : static_cast<std::uint32_t>(std::llround(v)); }

@@ -22,11 +22,7 @@ namespace {
 // Run-directory reads with compare's error type (the message names the file either way).
 template <class Read>
 auto reading(Read&& read) {
-  try {
-    return read();
-  } catch (const io::RunDirError& e) {
-    throw CompareError(e.what());
-  }
+  return io::rethrow_as<io::RunDirError, CompareError>(std::forward<Read>(read));
 }
 
 using io::RunMesh;
