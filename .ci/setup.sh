@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs perifx's build dependencies (Debian 12 packages) when missing, then configures and builds
 # a Release tree in ./build. Idempotent: a second run only rebuilds what changed.
+#   bash .ci/setup.sh        everything (library, CLI, tests, benchmarks): what CI runs
+#   bash .ci/setup.sh cli    only the perifx command line and the library it links (the quick start)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -17,4 +19,8 @@ if ((${#missing[@]})); then
 fi
 
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build build -j "$(nproc)"
+if [[ "${1:-}" == "cli" ]]; then
+  cmake --build build -j "$(nproc)" --target perifx
+else
+  cmake --build build -j "$(nproc)"
+fi

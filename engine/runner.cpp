@@ -92,7 +92,9 @@ RunSummary run_world(World& world, const RunOptions& options) {
   io::PvdSeries pvd(summary.output_directory / "particles.pvd");
   io::PvdSeries surface_pvd(summary.output_directory / "surface.pvd");
   io::PvdSeries tets_pvd(summary.output_directory / "tets.pvd");
-  const bool mesh_output = sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || sc.output.tets_vtu;
+  bool mesh_output = sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || sc.output.tets_vtu;
+  // Surfaces the scene did not ask for (the default) are left out of runs without a split mesh (FEM).
+  if (mesh_output && !world.has_embedded_mesh() && sc.output.surfaces_by_default) mesh_output = false;
   if (mesh_output && !world.has_embedded_mesh())
     throw std::invalid_argument("output formats obj/surface_ply/surface_vtp/tets_vtu need the embedded tet mesh "
                                 "(solver 'peridynamics')");
@@ -138,13 +140,13 @@ RunSummary run_world(World& world, const RunOptions& options) {
     if (const auto projectiles = world.projectiles(); !projectiles.empty()) {
       std::ostringstream rows;
       rows.precision(17);
-      if (projectile_csv.empty()) projectile_csv = "time,id,x,y,z,vx,vy,vz,wx,wy,wz,fx,fy,fz\n";
+      if (projectile_csv.empty()) projectile_csv = "time,id,x,y,z,vx,vy,vz,wx,wy,wz,fx,fy,fz,radius\n";
       for (std::size_t id = 0; id < projectiles.size(); ++id) {
         const auto& pr = projectiles[id];
         rows << world.time() << ',' << id;
         for (const Vec3* v : {&pr.center, &pr.velocity, &pr.angular_velocity, &pr.contact_force})
           rows << ',' << v->x() << ',' << v->y() << ',' << v->z();
-        rows << '\n';
+        rows << ',' << pr.radius << '\n';
       }
       projectile_csv += rows.str();
       io::write_atomic(summary.output_directory / "projectiles.csv", [&](std::ostream& out) { out << projectile_csv; });

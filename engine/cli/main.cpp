@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -37,6 +38,7 @@ struct Args {
   std::string second;  // compare: RUN_B
   std::optional<std::string> out, frames, threads, solver, dt;
   bool quiet = false;
+  bool render = false;  // run --render
 };
 
 long long parse_count(const std::string& flag, const std::string& value, long long min) {
@@ -233,6 +235,22 @@ int cmd_run(const Args& a) {
                   s.output_directory.string().c_str());
     std::cerr << buf;
   }
+  if (a.render) {
+    // --render: PNG frames (and an MP4 when ffmpeg is installed) in OUT/render, then where to look.
+    perifx::render::RenderOptions ro;
+    ro.run_directory = s.output_directory;
+    ro.scene_file = std::filesystem::path(a.scene);
+    ro.mp4 = std::system("command -v ffmpeg >/dev/null 2>&1") == 0;
+    const int code = perifx::render::render_command(ro, a.quiet);
+    if (code != kOk) return code;
+    if (!a.quiet) {
+      const auto dir = s.output_directory.string();
+      std::cerr << "\nopen the results:\n"
+                << "  frames     " << dir << "/render/frame.*.png" << (ro.mp4 ? "  (movie: " + dir + "/render/movie.mp4)" : "")
+                << "\n  ParaView   paraview " << dir << "/particles.pvd   (representation: Point Gaussian)\n"
+                << "  Blender    File > Import > Wavefront (.obj): " << dir << "/surface.NNNN.obj, one file per frame\n";
+    }
+  }
   return kOk;
 }
 
@@ -338,6 +356,7 @@ int main(int argc, char** argv) {
   text_option(run, "--out", a.out, "output directory (overrides the scene)");
   text_option(run, "--frames", a.frames, "run this many frames (N >= 1) instead of the scene's duration");
   run->add_flag("--quiet", a.quiet, "no progress or summary");
+  run->add_flag("--render", a.render, "then render PNG frames (and movie.mp4 with ffmpeg) into OUT/render");
   scene_options(app.add_subcommand("check", "validate the scene without running it"));
   scene_options(app.add_subcommand("info", "particles, bonds, memory, the stable time step and the task graph"));
   app.add_subcommand("spec", "print the scene format reference (markdown)");

@@ -25,6 +25,11 @@ TetMesh mesh_box(const Vec3& size, double cell);
 // inside, then boundary vertices moved onto the true surface where that keeps every tet valid.
 TetMesh mesh_sphere(double radius, double cell);
 TetMesh mesh_cylinder(double radius, double height, int axis, double cell);
+// jitter.cpp: moves every vertex by a seeded random offset of up to `amplitude` × its shortest edge
+// per axis (boundary vertices only within their flat face or along their straight edge; corners and
+// curved boundaries fixed), keeping every tet above a quarter of its volume. Deterministic for a
+// seed. Returns how many vertices moved. Removes the grid's preferred crack directions.
+std::size_t jitter_vertices(TetMesh& mesh, double amplitude, std::uint64_t seed);
 
 // TetGen .node/.ele (1- or 0-based, optional attributes and markers). `node_file` names the .node
 // file; the .ele beside it is read. Negatively oriented tets are flipped; degenerate ones are errors.

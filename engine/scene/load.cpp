@@ -287,6 +287,11 @@ class Converter {
       else if (g.contains("particles")) geo.particles = g["particles"].get<int>();
       else geo.resolution = g["resolution"].get<int>();
     }
+    if (geo.kind == Geometry::Kind::box || geo.kind == Geometry::Kind::sphere || geo.kind == Geometry::Kind::cylinder) {
+      geo.seed = g["seed"].get<long long>();
+      // Breakable bodies get a jittered mesh unless the scene says otherwise (FORMAT.md, geometry.jitter).
+      geo.jitter = g.contains("jitter") ? num(g["jitter"]) : -1.0;  // −1: decided below, once materials are known
+    }
 
     const Json& tr = b["transform"];
     out.transform.translation = vec(tr["translate"]);
@@ -448,10 +453,16 @@ Scene load_scene_text(const std::string& text, const fs::path& file) {
                              j["output"].contains("formats");
   detail::validate(j, name);
   Scene s = Converter(name, fs::absolute(file).parent_path()).run(j, file);
-  // Fracture scenes write the crack surfaces unless the scene lists its formats.
-  const bool fracture = std::any_of(s.materials.begin(), s.materials.end(),
-                                    [](const Material& m) { return std::isfinite(m.critical_stretch); });
-  if (!formats_given && fracture && s.solver == Solver::peridynamics) s.output.obj = s.output.surface_ply = true;
+  // Every body is a tet mesh, so scenes write its surface (OBJ + PLY) unless they list their formats:
+  // what a renderer draws is the body, not its particles. (FEM runs have no embedded mesh: the
+  // runner leaves defaulted surfaces out there.)
+  if (!formats_given && s.solver == Solver::peridynamics) {
+    s.output.obj = s.output.surface_ply = true;
+    s.output.surfaces_by_default = true;
+  }
+  for (Body& b : s.bodies)
+    if (b.geometry.jitter < 0.0)
+      b.geometry.jitter = std::isfinite(s.materials[static_cast<std::size_t>(b.material)].critical_stretch) ? 0.3 : 0.0;
   return s;
 }
 

@@ -111,6 +111,12 @@ Key build_spec() {
           integer("particles", "Target tet (particle) count: TetGen's volume bound is enclosed volume / "
                                "particles, rescaled up to twice toward the count. Coarse targets come out "
                                "higher: the surface's triangles set a floor.").ge(1).only({"surface"}),
+          number("jitter", "Random offset of the structured mesh's vertices, as a fraction of each vertex's "
+                           "shortest edge (boundary vertices slide within their flat face). Removes the "
+                           "grid's preferred crack directions. Omitted: 0.3 when the body's material can "
+                           "break (finite critical_stretch), else 0.").ge(0).le(0.4).only({"box", "sphere", "cylinder"}),
+          integer("seed", "Seed of the jitter: the same seed gives the same mesh, bit for bit.")
+              .ge(0).def(1).only({"box", "sphere", "cylinder"}),
       }).one_of({{"edge_length"}, {"resolution"}, {"particles"}}, false).req(),
       object("transform", "transform", "Placement of the mesh: x ↦ R·(scale·x) + translate.", {
           vec3("translate", "Translation, m.").def(kZero),
@@ -246,8 +252,8 @@ Key build_spec() {
                   "mesh (split along cracks, paper §5.2): `obj`: surface.NNNN.obj (groups and materials "
                   "`surface` and `crack`, surface.mtl); `surface_ply`: surface.NNNN.ply (binary, per-face "
                   "`crack` and `fragment`); `surface_vtp`: surface.NNNN.vtp + surface.pvd; `tets_vtu`: "
-                  "tets.NNNN.vtu + tets.pvd (per-tet damage and fragment). When `formats` is not given and "
-                  "a material has a finite critical_stretch, `obj` and `surface_ply` are added to the default.")
+                  "tets.NNNN.vtu + tets.pvd (per-tet damage and fragment). When `formats` is not given, "
+                  "`obj` and `surface_ply` are added to the default (peridynamics; FEM runs have no split mesh).")
               .at_least(1).def(Json::array({"vtu", "ply"})),
           strings("fields", {}, "Particle fields to write; empty = all. Names: see Particle fields below.").def(Json::array()),
       }).def(Json::object()),

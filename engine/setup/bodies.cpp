@@ -44,6 +44,11 @@ void add_bodies(const scene::Scene& scene, WorldState& w) {
   for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi) {
     const scene::Body& body = scene.bodies[bi];
     TetMesh mesh = mesh_for(body);
+    const auto kind = body.geometry.kind;
+    if (body.geometry.jitter > 0.0 &&
+        (kind == scene::Geometry::Kind::box || kind == scene::Geometry::Kind::sphere ||
+         kind == scene::Geometry::Kind::cylinder))
+      geometry::jitter_vertices(mesh, body.geometry.jitter, static_cast<std::uint64_t>(body.geometry.seed));
     for (Vec3& v : mesh.vertices) v = body.transform.rotation * (body.transform.scale * v) + body.transform.translation;
     if (mesh.tets.empty()) throw geometry::GeometryError("body '" + body.name + "': its mesh has no tetrahedra");
     std::vector<Vec3> centers(mesh.tets.size());

@@ -43,6 +43,8 @@ struct Geometry {
   double edge_length = 0.0;            // structured mesher, surface: target cell / tet edge size, m (0 = unset)
   int resolution = 0;                  // structured mesher, surface: cells along the longest extent
   long long particles = 0;             // surface: target tet count (0 = unset)
+  double jitter = 0.0;                 // box, sphere, cylinder: vertex offset / shortest edge (geometry/jitter.cpp)
+  long long seed = 1;                  // jitter seed
 };
 
 struct Transform {
@@ -153,6 +155,7 @@ struct Output {
   bool surface_ply = false;
   bool surface_vtp = false;            // surface.NNNN.vtp + surface.pvd (ParaView)
   bool tets_vtu = false;
+  bool surfaces_by_default = false;    // obj + surface_ply were added because `formats` was not given
   std::vector<std::string> fields;     // particle fields to write; empty = all registered fields
 };
 
