@@ -175,6 +175,7 @@ class Converter {
     s.output.surface_vtp = has_format("surface_vtp");
     s.output.tets_vtu = has_format("tets_vtu");
     s.output.fields = o["fields"].get<std::vector<std::string>>();
+    s.output.checkpoint_every = o["checkpoint_every"].get<std::uint64_t>();
     // Field names come from the systems' registry (systems/field_registry.hpp): checked here, once,
     // so `perifx check` catches a misspelt field before any meshing.
     const auto known = systems::step_fields();
@@ -448,6 +449,7 @@ Scene load_scene_text(const std::string& text, const fs::path& file) {
                              j["output"].contains("formats");
   detail::validate(j, name);
   Scene s = Converter(name, fs::absolute(file).parent_path()).run(j, file);
+  s.text = text;
   // Fracture scenes write the crack surfaces unless the scene lists its formats.
   const bool fracture = std::any_of(s.materials.begin(), s.materials.end(),
                                     [](const Material& m) { return std::isfinite(m.critical_stretch); });
