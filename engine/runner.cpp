@@ -83,6 +83,8 @@ long long frame_number(const std::string& name) {
 }
 
 bool is_run_file(const std::string& name) {
+  // A temporary of an atomic write (io/atomic.hpp: "<name>.tmp-<pid>") that a kill left behind.
+  if (const auto tmp = name.find(".tmp-"); tmp != std::string::npos) return is_run_file(name.substr(0, tmp));
   return frame_number(name) >= 0 || name == "projectiles.csv" || name == "summary.json" || name == "mesh.json" ||
          name == "checkpoint.bin" || name == "surface.mtl" || (name.size() > 4 && name.ends_with(".pvd"));
 }
@@ -147,10 +149,12 @@ RunSummary run_world(World& world, const RunOptions& options) {
     tets_pvd.restore(note.at("tets_pvd").get<PvdEntries>());
     projectile_csv = note.at("projectile_csv").get<std::string>();
     // Frames the interrupted run wrote after its checkpoint are written again (the same bytes); any
-    // beyond this run's last frame would not be, so they go.
+    // beyond this run's last frame would not be, so they go, and so do temporaries a kill left.
     std::vector<fs::path> later;
     for (const auto& f : existing)
-      if (frame_number(f.filename().string()) > static_cast<long long>(frames)) later.push_back(f);
+      if (frame_number(f.filename().string()) > static_cast<long long>(frames) ||
+          f.filename().string().find(".tmp-") != std::string::npos)
+        later.push_back(f);
     remove_files(later);
   } else if (!existing.empty()) {
     if (options.existing == ExistingRun::refuse) {
