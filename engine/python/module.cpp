@@ -190,12 +190,19 @@ PYBIND11_MODULE(perifx, m) {
         opt.frames = frames;
         opt.existing = resume ? perifx::ExistingRun::resume
                        : overwrite ? perifx::ExistingRun::overwrite : perifx::ExistingRun::refuse;
-        // Called between frames on this thread: take the GIL, let Python see Ctrl-C (KeyboardInterrupt
-        // propagates out of run_world as error_already_set), then call the callback.
-        opt.on_frame = [&](const perifx::RunProgress& p) {
+        // Between frames (on this thread, which holds no GIL while stepping): Ctrl-C is seen by
+        // PyErr_CheckSignals; the run then writes a checkpoint and summary.json and stops, and the
+        // KeyboardInterrupt is raised when run_world returns. An exception from `progress` stops the
+        // run at once.
+        std::optional<py::error_already_set> interrupt;
+        opt.stop_requested = [&] {
           py::gil_scoped_acquire gil;
-          if (PyErr_CheckSignals() != 0) throw py::error_already_set();
-          if (progress.is_none()) return;
+          if (!interrupt && PyErr_CheckSignals() != 0) interrupt.emplace();
+          return interrupt.has_value();
+        };
+        opt.on_frame = [&](const perifx::RunProgress& p) {
+          if (progress.is_none() || interrupt) return;
+          py::gil_scoped_acquire gil;
           py::dict d;
           d["frame"] = p.frame, d["frames"] = p.frames, d["step"] = p.step, d["steps"] = p.steps;
           d["time"] = p.time, d["steps_per_second"] = p.steps_per_second, d["eta_seconds"] = p.eta_seconds;
@@ -207,6 +214,7 @@ PYBIND11_MODULE(perifx, m) {
           py::gil_scoped_release free;
           s = perifx::run_world(world, opt);
         }
+        if (interrupt) throw *interrupt;
         py::dict d;
         d["particles"] = s.particles, d["bonds"] = s.bonds, d["alive_bonds"] = s.alive_bonds;
         d["fragments"] = s.fragments, d["steps"] = s.steps, d["frames"] = s.frames;
@@ -220,5 +228,6 @@ PYBIND11_MODULE(perifx, m) {
       py::arg("resume") = false, py::arg("base") = py::none(),
       "run(scene, *, out=None, frames=None, threads=None, progress=None, overwrite=False, resume=False): "
       "write the scene's frames as `perifx run` does; progress(dict) is called after every frame; Ctrl-C "
-      "raises KeyboardInterrupt between frames. Returns the summary as a dict.");
+      "finishes the frame, writes a checkpoint and the summary, and raises KeyboardInterrupt (continue with "
+      "resume=True). Returns the summary as a dict.");
 }

@@ -140,3 +140,17 @@ def test_checkpoint_round_trip(tmp_path):
     b.step(30)
     assert np.array_equal(a.positions(), b.positions())
     assert np.array_equal(a.field("damage"), b.field("damage"))
+
+
+def test_ctrl_c_stops_a_run_with_a_checkpoint(tmp_path):
+    import signal
+    import threading
+    out = tmp_path / "run"
+    threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
+    with pytest.raises(KeyboardInterrupt):
+        perifx.run(str(WALL), out=str(out), frames=400)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["interrupted"] and 0 < summary["last_frame"] < 400
+    assert (out / "checkpoint.bin").exists()
+    resumed = perifx.run(str(WALL), out=str(out), frames=summary["last_frame"] + 2, resume=True)
+    assert resumed["first_frame"] == summary["last_frame"]
