@@ -143,6 +143,10 @@ RunSummary run_world(World& world, const RunOptions& options) {
   if (options.existing == ExistingRun::resume && fs::exists(checkpoint)) {
     const auto note = nlohmann::json::parse(world.load_checkpoint(checkpoint));
     start_frame = note.at("frame").get<std::uint64_t>();
+    if (start_frame > frames)
+      throw std::invalid_argument("cannot resume: the checkpoint in '" + dir.string() + "' is at frame " +
+                                  std::to_string(start_frame) + ", past this run's last frame " + std::to_string(frames) +
+                                  " (ask for more frames, or --overwrite)");
     first_step = note.at("first_step").get<std::uint64_t>();
     pvd.restore(note.at("particles_pvd").get<PvdEntries>());
     surface_pvd.restore(note.at("surface_pvd").get<PvdEntries>());
