@@ -65,7 +65,7 @@ std::string run_args(const fs::path& out, const std::string& extra) {
   return "run " + kScene.string() + " --out " + out.string() + " --quiet " + extra;
 }
 
-// Starts the CLI, waits until it has written a checkpoint, then a random 0–0.6 s more, and sends
+// Starts the CLI, waits until it has written a checkpoint, then a random 0–1.5 s more, and sends
 // `sig`. Returns the exit status as waitpid reports it.
 int start_and_signal(const fs::path& out, const std::string& threads, int sig, unsigned seed) {
   const std::string scene = kScene.string(), dir = out.string();
@@ -81,7 +81,7 @@ int start_and_signal(const fs::path& out, const std::string& threads, int sig, u
   for (int k = 0; k < 600 && !fs::exists(out / "checkpoint.bin"); ++k)
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   std::mt19937 rng(seed);
-  std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(0, 600)(rng)));
+  std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(0, 1500)(rng)));
   ::kill(pid, sig);
   int status = 0;
   ::waitpid(pid, &status, 0);
