@@ -6,7 +6,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-packages=(cmake g++ make libeigen3-dev libtbb-dev nlohmann-json3-dev doctest-dev libbenchmark-dev libpng-dev libcli11-dev libspectra-dev tetgen)
+packages=(cmake g++ make libeigen3-dev libtbb-dev nlohmann-json3-dev doctest-dev libbenchmark-dev libpng-dev libcli11-dev libspectra-dev tetgen
+          pybind11-dev python3-dev python3-numpy python3-pytest)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -6,6 +6,7 @@
 // vocabulary header perifx/scene.hpp.
 #pragma once
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "components/bonds.hpp"
@@ -94,11 +95,14 @@ enum class ArrayKind : std::uint8_t { particle, bond, mesh, contact, other };
 
 // Calls f(kind, name, vector) for every array the world owns: the one list memory accounting reads
 // (tests/engine/test_world.cpp checks it against the bytes the heap actually holds, so an array left
-// out of it fails a test). Reflection only; no behaviour.
-template <class F>
-void for_each_array(const WorldState& w, F&& f) {
+// out of it fails a test) and the list checkpoints save and restore (engine/io/checkpoint.cpp; the
+// resume tests fail when one is missing). W is WorldState or const WorldState (a restore fills them).
+// Reflection only; no behaviour.
+template <class W, class F>
+  requires std::is_same_v<std::remove_const_t<W>, WorldState>
+void for_each_array(W& w, F&& f) {
   using K = ArrayKind;
-  const auto& p = w.particles;
+  auto& p = w.particles;
   f(K::particle, "particles.reference_position", p.reference_position);
   f(K::particle, "particles.position", p.position);
   f(K::particle, "particles.velocity", p.velocity);
@@ -108,7 +112,7 @@ void for_each_array(const WorldState& w, F&& f) {
   f(K::particle, "particles.material_id", p.material_id);
   f(K::particle, "particles.body_id", p.body_id);
   f(K::particle, "particles.flags", p.flags);
-  const auto& m = w.model;
+  auto& m = w.model;
   f(K::particle, "model.horizon", m.horizon);
   f(K::particle, "model.dilatation_scale", m.dilatation_scale);
   f(K::particle, "model.a4", m.a4);
@@ -119,7 +123,7 @@ void for_each_array(const WorldState& w, F&& f) {
   f(K::particle, "model.plastic_cap", m.plastic_cap);
   f(K::particle, "model.critical_stretch", m.critical_stretch);
   f(K::particle, "model.damage_alpha", m.damage_alpha);
-  const auto& s = w.state;
+  auto& s = w.state;
   f(K::particle, "state.dilatation", s.dilatation);
   f(K::particle, "state.dilatation_coupling", s.dilatation_coupling);
   f(K::particle, "state.damage", s.damage);
@@ -129,7 +133,7 @@ void for_each_array(const WorldState& w, F&& f) {
   f(K::particle, "state.contact_force", s.contact_force);
   f(K::particle, "state.broken_bonds", s.broken_bonds);
   f(K::particle, "state.bond_end", s.bond_end);
-  const auto& b = w.bonds;
+  auto& b = w.bonds;
   f(K::particle, "bonds.offsets", b.offsets);
   f(K::particle, "bonds.initial_count", b.initial_count);
   f(K::bond, "bonds.neighbor", b.neighbor);
@@ -141,7 +145,7 @@ void for_each_array(const WorldState& w, F&& f) {
   f(K::bond, "bonds.plastic_extension_mirror", b.plastic_extension_mirror);
   f(K::mesh, "mesh.vertices", w.mesh.vertices);
   f(K::mesh, "mesh.tets", w.mesh.tets);
-  const auto& e = w.embedded;
+  auto& e = w.embedded;
   f(K::mesh, "embedded.reference_vertices", e.reference_vertices);
   f(K::mesh, "embedded.vertices", e.vertices);
   f(K::mesh, "embedded.vertex_velocity", e.vertex_velocity);
@@ -162,7 +166,7 @@ void for_each_array(const WorldState& w, F&& f) {
   f(K::mesh, "embedded.fresh", e.fresh);
   f(K::mesh, "embedded.incidence_offsets", e.incidence_offsets);
   f(K::mesh, "embedded.incidence", e.incidence);
-  const auto& fem = w.fem;
+  auto& fem = w.fem;
   f(K::mesh, "fem.dm_inverse", fem.dm_inverse);
   f(K::mesh, "fem.volume", fem.volume);
   f(K::mesh, "fem.lame_lambda", fem.lame_lambda);
@@ -170,7 +174,7 @@ void for_each_array(const WorldState& w, F&& f) {
   f(K::mesh, "fem.vertex_offsets", fem.vertex_offsets);
   f(K::mesh, "fem.vertex_corners", fem.vertex_corners);
   f(K::mesh, "fem.corner_force", fem.corner_force);
-  const auto& c = w.contact;
+  auto& c = w.contact;
   f(K::contact, "contact.size", c.size);
   f(K::contact, "contact.grid.cell_of", c.grid.cell_of);
   f(K::contact, "contact.grid.sorted_key", c.grid.sorted_key);
@@ -192,7 +196,7 @@ void for_each_array(const WorldState& w, F&& f) {
   f(K::other, "projectiles.particle_force", w.projectiles.particle_force);
   f(K::other, "projectiles.torque", w.projectiles.torque);
   f(K::other, "boundary.constrained", w.boundary.constrained);
-  for (const auto& list : w.boundary.particles) f(K::other, "boundary.particles", list);
+  for (auto& list : w.boundary.particles) f(K::other, "boundary.particles", list);
   f(K::other, "derived.displacement", w.derived.displacement);
   f(K::other, "derived.plastic_strain", w.derived.plastic_strain);
   f(K::other, "derived.alive_bonds", w.derived.alive_bonds);

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <regex>
 #include <sstream>
 #include <stdexcept>
 
@@ -72,7 +73,43 @@ io::RunMesh run_mesh(const World& world) {
   return m;
 }
 
+namespace fs = std::filesystem;
+
+// particles.NNNN.vtu, surface.NNNN.obj ...: the frame number, or -1 for other names.
+long long frame_number(const std::string& name) {
+  static const std::regex kFrame(R"((particles|surface|tets)\.(\d+)\.(vtu|ply|obj|vtp))");
+  std::smatch m;
+  return std::regex_match(name, m, kFrame) ? std::stoll(m[2].str()) : -1;
+}
+
+bool is_run_file(const std::string& name) {
+  // A temporary of an atomic write (io/atomic.hpp: "<name>.tmp-<pid>") that a kill left behind.
+  if (const auto tmp = name.find(".tmp-"); tmp != std::string::npos) return is_run_file(name.substr(0, tmp));
+  return frame_number(name) >= 0 || name == "projectiles.csv" || name == "summary.json" || name == "mesh.json" ||
+         name == "checkpoint.bin" || name == "surface.mtl" || (name.size() > 4 && name.ends_with(".pvd"));
+}
+
+void remove_files(const std::vector<fs::path>& files) {
+  for (const auto& f : files) {
+    std::error_code ec;
+    fs::remove(f, ec);
+    if (ec) throw io::IoError("cannot remove '" + f.string() + "' (a previous run's file): " + ec.message());
+  }
+}
+
+using PvdEntries = std::vector<std::pair<double, std::string>>;
+
 }  // namespace
+
+std::vector<fs::path> run_files(const fs::path& dir) {
+  std::vector<fs::path> out;
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return out;
+  for (const auto& entry : fs::directory_iterator(dir, ec))
+    if (entry.is_regular_file() && is_run_file(entry.path().filename().string())) out.push_back(entry.path());
+  std::sort(out.begin(), out.end());
+  return out;
+}
 
 RunSummary run_world(World& world, const RunOptions& options) {
   using clock = std::chrono::steady_clock;
@@ -87,7 +124,6 @@ RunSummary run_world(World& world, const RunOptions& options) {
   auto step_of_frame = [&](std::uint64_t k) {
     return static_cast<std::uint64_t>(std::llround(double(k) * frame_interval / world.dt()));
   };
-  const std::uint64_t first_step = world.step_count();
   const std::uint64_t total_steps = step_of_frame(frames);
   io::PvdSeries pvd(summary.output_directory / "particles.pvd");
   io::PvdSeries surface_pvd(summary.output_directory / "surface.pvd");
@@ -98,11 +134,48 @@ RunSummary run_world(World& world, const RunOptions& options) {
   if (mesh_output && !world.has_embedded_mesh())
     throw std::invalid_argument("output formats obj/surface_ply/surface_vtp/tets_vtu need the embedded tet mesh "
                                 "(solver 'peridynamics')");
-  if (sc.output.obj) io::write_surface_mtl(summary.output_directory / "surface.mtl");
   const std::size_t bonds = world.bond_count();
 
-  double step_wall = 0.0, output_wall = 0.0;
+  // A folder holding another run: refuse, clear it, or continue it from its checkpoint.
+  const fs::path& dir = summary.output_directory;
+  const fs::path checkpoint = dir / "checkpoint.bin";
+  std::uint64_t start_frame = 0, first_step = world.step_count();
   std::string projectile_csv;  // projectiles.csv so far
+  const auto existing = run_files(dir);
+  if (options.existing == ExistingRun::resume && fs::exists(checkpoint)) {
+    const auto note = nlohmann::json::parse(world.load_checkpoint(checkpoint));
+    start_frame = note.at("frame").get<std::uint64_t>();
+    if (start_frame > frames)
+      throw std::invalid_argument("cannot resume: the checkpoint in '" + dir.string() + "' is at frame " +
+                                  std::to_string(start_frame) + ", past this run's last frame " + std::to_string(frames) +
+                                  " (ask for more frames, or --overwrite)");
+    first_step = note.at("first_step").get<std::uint64_t>();
+    pvd.restore(note.at("particles_pvd").get<PvdEntries>());
+    surface_pvd.restore(note.at("surface_pvd").get<PvdEntries>());
+    tets_pvd.restore(note.at("tets_pvd").get<PvdEntries>());
+    projectile_csv = note.at("projectile_csv").get<std::string>();
+    // Frames the interrupted run wrote after its checkpoint are written again (the same bytes); any
+    // beyond this run's last frame would not be, so they go, and so do temporaries a kill left.
+    std::vector<fs::path> later;
+    for (const auto& f : existing)
+      if (frame_number(f.filename().string()) > static_cast<long long>(frames) ||
+          f.filename().string().find(".tmp-") != std::string::npos)
+        later.push_back(f);
+    remove_files(later);
+  } else if (!existing.empty()) {
+    if (options.existing == ExistingRun::refuse) {
+      std::string names;
+      for (std::size_t k = 0; k < existing.size() && k < 3; ++k) names += (k ? ", " : "") + existing[k].filename().string();
+      if (existing.size() > 3) names += ", ... (" + std::to_string(existing.size()) + " files)";
+      throw io::IoError("output directory '" + dir.string() + "' holds another run's output (" + names +
+                        "); use --overwrite to replace it or --resume to continue it");
+    }
+    remove_files(existing);  // overwrite, or resume with no checkpoint: start over
+  }
+  summary.first_frame = start_frame;
+  if (sc.output.obj) io::write_surface_mtl(summary.output_directory / "surface.mtl");
+
+  double step_wall = 0.0, output_wall = 0.0;
   auto write_frame = [&](std::uint64_t k) {
     const auto t0 = clock::now();
     const auto fields = selected_fields(world);
@@ -114,7 +187,6 @@ RunSummary run_world(World& world, const RunOptions& options) {
     if (sc.output.ply) io::write_ply_points(summary.output_directory / frame_name(k, "ply"), points, fields);
     // Embedded tet mesh (§5.2): the split mesh's surface (original + crack triangles) and its tets.
     if (mesh_output) {
-      const auto& dir = summary.output_directory;
       if (sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp) {
         const SurfaceMesh surface = world.surface();
         if (sc.output.obj) io::write_obj_surface(dir / frame_name(k, "obj", "surface"), surface);
@@ -154,16 +226,36 @@ RunSummary run_world(World& world, const RunOptions& options) {
     output_wall += std::chrono::duration<double>(clock::now() - t0).count();
   };
 
-  write_frame(0);
-  // mesh.json: what the particles are and the tet connectivity, so `perifx compare` can map a
-  // peridynamic run (tet barycenters) onto an FEM run (mesh vertices) of the same scene.
-  io::write_run_mesh(summary.output_directory, run_mesh(world));
-  for (std::uint64_t k = 1; k <= frames; ++k) {
+  auto write_checkpoint = [&](std::uint64_t k) {
+    const auto t0 = clock::now();
+    nlohmann::json note = {{"frame", k},
+                           {"first_step", first_step},
+                           {"particles_pvd", pvd.entries()},
+                           {"surface_pvd", surface_pvd.entries()},
+                           {"tets_pvd", tets_pvd.entries()},
+                           {"projectile_csv", projectile_csv}};
+    world.save_checkpoint(checkpoint, note.dump());
+    output_wall += std::chrono::duration<double>(clock::now() - t0).count();
+  };
+
+  if (start_frame == 0) {
+    write_frame(0);
+    // mesh.json: what the particles are and the tet connectivity, so `perifx compare` can map a
+    // peridynamic run (tet barycenters) onto an FEM run (mesh vertices) of the same scene.
+    io::write_run_mesh(summary.output_directory, run_mesh(world));
+  }
+  summary.last_frame = start_frame;
+  const std::uint64_t session_step = world.step_count();  // rates count this session's steps only
+  const std::uint64_t every = sc.output.checkpoint_every;
+  for (std::uint64_t k = start_frame + 1; k <= frames; ++k) {
     const std::uint64_t target = first_step + step_of_frame(k);
     const auto t0 = clock::now();
     while (world.step_count() < target) world.step();
     step_wall += std::chrono::duration<double>(clock::now() - t0).count();
     write_frame(k);
+    summary.last_frame = k;
+    const bool stop = options.stop_requested && options.stop_requested() && k < frames;
+    if (stop || (every > 0 && (k % every == 0 || k == frames))) write_checkpoint(k);
     if (options.on_frame) {
       RunProgress pr;
       pr.frame = k;
@@ -171,10 +263,17 @@ RunSummary run_world(World& world, const RunOptions& options) {
       pr.step = world.step_count() - first_step;
       pr.steps = total_steps;
       pr.wall_seconds = step_wall + output_wall;
-      pr.steps_per_second = step_wall > 0 ? double(pr.step) / step_wall : 0.0;
-      const double per_step = pr.step ? pr.wall_seconds / double(pr.step) : 0.0;
+      const std::uint64_t stepped = world.step_count() - session_step;
+      pr.steps_per_second = step_wall > 0 ? double(stepped) / step_wall : 0.0;
+      const double per_step = stepped ? pr.wall_seconds / double(stepped) : 0.0;
       pr.eta_seconds = per_step * double(total_steps - pr.step);
+      pr.time = world.time();
+      pr.world = &world;
       options.on_frame(pr);
+    }
+    if (stop) {
+      summary.interrupted = true;
+      break;
     }
   }
 
@@ -187,7 +286,8 @@ RunSummary run_world(World& world, const RunOptions& options) {
   summary.simulated_seconds = world.time();
   summary.wall_seconds = step_wall;
   summary.output_seconds = output_wall;
-  summary.bond_updates_per_second = step_wall > 0 ? double(bonds) * double(summary.steps) / step_wall : 0.0;
+  summary.bond_updates_per_second =
+      step_wall > 0 ? double(bonds) * double(world.step_count() - session_step) / step_wall : 0.0;
   summary.threads = world.threads();
   summary.contact_list_builds = world.contact_counters().list_builds;
   summary.contact_list_additions = world.contact_counters().list_additions;
@@ -195,6 +295,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
   // nlohmann-json does the quoting, so any scene name gives valid JSON; ordered keeps the field order.
   nlohmann::ordered_json js;
   js["scene"] = sc.name;
+  js["version"] = PERIFX_VERSION;
   js["particles"] = summary.particles;
   js["bonds"] = summary.bonds;
   js["alive_bonds"] = summary.alive_bonds;
@@ -209,6 +310,9 @@ RunSummary run_world(World& world, const RunOptions& options) {
   js["bond_updates_per_second"] = summary.bond_updates_per_second;
   js["contact_list_builds"] = summary.contact_list_builds;
   js["contact_list_additions"] = summary.contact_list_additions;
+  js["first_frame"] = summary.first_frame;  // > 0: resumed after that frame's checkpoint
+  js["last_frame"] = summary.last_frame;
+  js["interrupted"] = summary.interrupted;
   // Timings differ run to run; keep them out of the frame files so those stay byte-identical.
   const std::string text = js.dump(2) + "\n";
   io::write_atomic(summary.output_directory / "summary.json", [&](std::ostream& out) { out << text; });

@@ -5,6 +5,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "perifx/world.hpp"
 
@@ -16,12 +17,25 @@ struct RunProgress {
   double wall_seconds = 0.0;
   double steps_per_second = 0.0;
   double eta_seconds = 0.0;
+  double time = 0.0;                     // simulated seconds at this frame
+  const World* world = nullptr;          // the world being run, for counters a host wants to show
+};
+
+// What run_world does when the output directory already holds a run's files (run_files).
+enum class ExistingRun {
+  refuse,     // throw io::IoError naming the folder and some of the files (CLI: exit 3)
+  overwrite,  // remove that run's files first
+  resume,     // continue after <dir>/checkpoint.bin; with no checkpoint, start over (as overwrite)
 };
 
 struct RunOptions {
   std::optional<std::filesystem::path> output_directory;  // overrides scene.output.directory
   std::optional<std::uint64_t> frames;                    // overrides duration: run this many frames
   std::function<void(const RunProgress&)> on_frame;       // called after every written frame
+  ExistingRun existing = ExistingRun::refuse;
+  // Polled after every frame; when it returns true the run writes a checkpoint and the summary and
+  // returns with RunSummary::interrupted set (the CLI's SIGTERM/SIGINT handling).
+  std::function<bool()> stop_requested;
 };
 
 struct RunSummary {
@@ -36,11 +50,21 @@ struct RunSummary {
   std::uint64_t contact_list_builds = 0;     // particle-contact pair list: full rebuilds (motion)
   std::uint64_t contact_list_additions = 0;  // and incremental additions of broken bonds' pairs
   std::filesystem::path output_directory;
+  std::uint64_t first_frame = 0;      // 0, or the checkpoint's frame a resumed run continued after
+  std::uint64_t last_frame = 0;       // the last frame written
+  bool interrupted = false;           // stopped by stop_requested before the last frame
 };
 
+// The files of a run in `dir` (particles.*, surface.*, tets.*, *.pvd, projectiles.csv, summary.json,
+// mesh.json, checkpoint.bin), sorted; empty when there are none or `dir` does not exist.
+std::vector<std::filesystem::path> run_files(const std::filesystem::path& dir);
+
 // Writes frame files "<dir>/particles.NNNN.{vtu,ply}" and "<dir>/particles.pvd" (frame 0 is the
-// initial state) and "<dir>/summary.json" at the end, all atomically. Throws io::IoError,
-// std::invalid_argument for unknown output field names.
+// initial state), every scene.output.checkpoint_every frames and after the last one
+// "<dir>/checkpoint.bin" (World::save_checkpoint), and "<dir>/summary.json" at the end, all
+// atomically. Refuses a directory holding another run (see ExistingRun). Throws io::IoError,
+// scene::SceneError (a checkpoint of another scene), std::invalid_argument for unknown output
+// field names.
 RunSummary run_world(World& world, const RunOptions& options);
 
 }  // namespace perifx

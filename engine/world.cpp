@@ -3,6 +3,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "io/checkpoint.hpp"
 #include "scheduler.hpp"
 #include "setup/world_setup.hpp"
 #include "systems/field_registry.hpp"
@@ -199,6 +200,37 @@ SurfaceMesh World::surface() const {
     systems::extract_surface(w, &w.derived.fragment_id, surface);
   });
   return surface;
+}
+
+namespace {
+const char* solver_text(scene::Solver s) {
+  switch (s) {
+    case scene::Solver::peridynamics: return "peridynamics";
+    case scene::Solver::fem_linear: return "fem_linear";
+    case scene::Solver::fem_corotated: return "fem_corotated";
+  }
+  return "?";
+}
+}  // namespace
+
+void World::save_checkpoint(const std::filesystem::path& file, const std::string& note) const {
+  io::CheckpointHeader h;
+  h.scene_text = impl_->scene.text;
+  h.scene_hash = io::scene_hash(h.scene_text);
+  h.solver = solver_text(impl_->scene.solver);
+  h.note = note;
+  io::write_checkpoint(file, *impl_->state, std::move(h));
+}
+
+std::string World::load_checkpoint(const std::filesystem::path& file) {
+  const io::CheckpointHeader h = io::read_checkpoint_header(file);
+  const std::string why = io::checkpoint_mismatch(h, impl_->scene.text, dt(), solver_text(impl_->scene.solver),
+                                                  particle_count(), bond_count());
+  if (!why.empty())
+    throw scene::SceneError(impl_->scene.source.string(), "", "cannot resume from checkpoint '" + file.string() + "': " + why);
+  io::read_checkpoint(file, state_mutable());
+  impl_->stable_dt = 0.0;
+  return h.note;
 }
 
 const scene::Scene& World::scene() const { return impl_->scene; }

@@ -2,7 +2,10 @@
 // directories; every command has --help, and perifx --version. Exit codes (also in the README):
 //   0 success   1 usage error   2 invalid scene or mesh   3 output could not be written
 //   4 time step above the stable limit   5 internal error
+//   6 interrupted by SIGTERM/SIGINT (the frame in progress, a checkpoint and the summary were written)
 #include <unistd.h>
+
+#include <csignal>
 
 #include <chrono>
 #include <cstdlib>
@@ -10,6 +13,7 @@
 #include <cstdio>
 #include <iostream>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -24,7 +28,13 @@
 
 namespace {
 
-enum Exit { kOk = 0, kUsage = 1, kScene = 2, kOutput = 3, kUnstable = 4, kInternal = 5 };
+enum Exit { kOk = 0, kUsage = 1, kScene = 2, kOutput = 3, kUnstable = 4, kInternal = 5, kInterrupted = 6 };
+
+// The one global of the program: a signal handler can only set a flag. `perifx run` installs
+// on_stop_signal for SIGTERM and SIGINT (one-shot: a second signal kills as usual) and the run loop
+// polls the flag after every frame (RunOptions::stop_requested).
+volatile std::sig_atomic_t g_stop_signal = 0;
+extern "C" void on_stop_signal(int sig) { g_stop_signal = sig; }
 
 // Usage errors are one line on stderr and exit code 1; `perifx <command> --help` has the details.
 struct UsageError {
@@ -36,8 +46,8 @@ struct UsageError {
 struct Args {
   std::string command, scene;
   std::string second;  // compare: RUN_B
-  std::optional<std::string> out, frames, threads, solver, dt;
-  bool quiet = false;
+  std::optional<std::string> out, frames, threads, solver, dt, progress;
+  bool quiet = false, overwrite = false, resume = false;
   bool render = false;  // run --render
 };
 
@@ -195,21 +205,48 @@ int cmd_info(const Args& a) {
   return ok ? kOk : kUnstable;
 }
 
+// One JSON object per line on stdout, for farm managers.
+void print_progress_json(const perifx::RunProgress& p) {
+  const perifx::World& w = *p.world;
+  const std::size_t broken = (w.bond_count() - w.alive_bond_count()) / 2;
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "{\"frame\":%llu,\"frames\":%llu,\"step\":%llu,\"steps\":%llu,\"time\":%.9g,\"steps_per_second\":%.6g,"
+                "\"elapsed_seconds\":%.3f,\"eta_seconds\":%.3f,\"broken_bonds\":%zu,\"pieces\":%zu,\"memory_bytes\":%zu}",
+                (unsigned long long)p.frame, (unsigned long long)p.frames, (unsigned long long)p.step,
+                (unsigned long long)p.steps, p.time, p.steps_per_second, p.wall_seconds, p.eta_seconds, broken,
+                w.fragment_count(), w.memory().total_bytes);
+  std::cout << buf << std::endl;  // flushed: a farm manager reads it line by line
+}
+
 int cmd_run(const Args& a) {
   const std::optional<std::uint64_t> frames =
       a.frames ? std::optional<std::uint64_t>(static_cast<std::uint64_t>(parse_count("--frames", *a.frames, 1)))
                : std::nullopt;
+  if (a.progress && *a.progress != "text" && *a.progress != "json")
+    throw UsageError{"--progress expects text or json, got '" + *a.progress + "'"};
+  if (a.overwrite && a.resume) throw UsageError{"--overwrite and --resume exclude each other"};
+  const bool json = a.progress && *a.progress == "json";
+  const bool talk = !a.quiet && !json;  // human-readable lines on stderr
   perifx::World world(load(a));
-  const bool tty = ::isatty(STDERR_FILENO) && !a.quiet;
-  if (!a.quiet)
+  const bool tty = ::isatty(STDERR_FILENO) && talk;
+  if (talk)
     std::cerr << "perifx: " << world.scene().name << ": " << world.particle_count() << " particles, "
               << world.bond_count() << " bonds, " << world.threads() << " threads\n";
-  if (!report_time_step(world, a.quiet ? std::clog : std::cerr)) return kUnstable;
+  std::ostringstream silent;  // --quiet / json: the time-step report is dropped (its error still goes to stderr)
+  if (!report_time_step(world, talk ? std::cerr : silent)) return kUnstable;
   perifx::RunOptions opt;
   if (a.out) opt.output_directory = *a.out;
   opt.frames = frames;
+  opt.existing = a.resume ? perifx::ExistingRun::resume
+                 : a.overwrite ? perifx::ExistingRun::overwrite : perifx::ExistingRun::refuse;
+  std::signal(SIGTERM, on_stop_signal);
+  std::signal(SIGINT, on_stop_signal);
+  opt.stop_requested = [] { return g_stop_signal != 0; };
   auto last_print = std::chrono::steady_clock::now();
-  if (!a.quiet)
+  if (json)
+    opt.on_frame = print_progress_json;
+  else if (talk)
     opt.on_frame = [&](const perifx::RunProgress& p) {
       const auto now = std::chrono::steady_clock::now();
       const bool last = p.frame == p.frames;
@@ -224,16 +261,23 @@ int cmd_run(const Args& a) {
       else std::cerr << buf << "\n";
     };
   const auto s = perifx::run_world(world, opt);
-  if (!a.quiet) {
-    char buf[400];
+  std::signal(SIGTERM, SIG_DFL);
+  std::signal(SIGINT, SIG_DFL);
+  if (talk) {
+    char buf[500];
     std::snprintf(buf, sizeof buf,
-                  "done: %zu particles, %zu bonds (%zu alive), %zu fragments, %llu steps, %llu frames, %.3g s simulated\n"
+                  "%s: %zu particles, %zu bonds (%zu alive), %zu fragments, %llu steps, frames %llu..%llu of %llu, %.3g s simulated\n"
                   "      wall %.2f s stepping + %.2f s output, %.3g bond-updates/s on %d threads\n"
                   "      output: %s\n",
-                  s.particles, s.bonds, s.alive_bonds, s.fragments, (unsigned long long)s.steps, (unsigned long long)s.frames,
-                  s.simulated_seconds, s.wall_seconds, s.output_seconds, s.bond_updates_per_second, s.threads,
-                  s.output_directory.string().c_str());
+                  s.interrupted ? "interrupted" : "done", s.particles, s.bonds, s.alive_bonds, s.fragments,
+                  (unsigned long long)s.steps, (unsigned long long)s.first_frame, (unsigned long long)s.last_frame,
+                  (unsigned long long)s.frames, s.simulated_seconds, s.wall_seconds, s.output_seconds,
+                  s.bond_updates_per_second, s.threads, s.output_directory.string().c_str());
     std::cerr << buf;
+  }
+  if (s.interrupted) {
+    if (!a.quiet) std::cerr << "perifx: interrupted after frame " << s.last_frame << "; continue with --resume\n";
+    return kInterrupted;
   }
   if (a.render) {
     // --render: PNG frames (and an MP4 when ffmpeg is installed) in OUT/render, then where to look.
@@ -341,7 +385,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("perifx ") + PERIFX_VERSION);
   app.require_subcommand(1);
   app.footer(
-      "exit codes: 0 ok, 1 usage, 2 invalid scene or mesh, 3 output error, 4 unstable time step, 5 internal\n"
+      "exit codes: 0 ok, 1 usage, 2 invalid scene or mesh, 3 output error, 4 unstable time step, 5 internal,\n"
+      "6 interrupted (SIGTERM/SIGINT; checkpoint written, continue with run --resume)\n"
       "Run perifx COMMAND --help for a command's options.");
   Args a;
   // Scene overrides shared by run, check and info.
@@ -355,7 +400,12 @@ int main(int argc, char** argv) {
   scene_options(run);
   text_option(run, "--out", a.out, "output directory (overrides the scene)");
   text_option(run, "--frames", a.frames, "run this many frames (N >= 1) instead of the scene's duration");
-  run->add_flag("--quiet", a.quiet, "no progress or summary");
+  run->add_flag("--quiet", a.quiet, "print nothing but errors");
+  text_option(run, "--progress", a.progress, "text|json: json writes one JSON object per frame on stdout (frame, step, "
+                                             "time, steps/s, ETA, broken bonds, pieces, memory)");
+  run->add_flag("--overwrite", a.overwrite, "remove another run's files from the output directory first");
+  run->add_flag("--resume", a.resume, "continue the run in the output directory after its last checkpoint "
+                                      "(start over when there is none)");
   run->add_flag("--render", a.render, "then render PNG frames (and movie.mp4 with ffmpeg) into OUT/render");
   scene_options(app.add_subcommand("check", "validate the scene without running it"));
   scene_options(app.add_subcommand("info", "particles, bonds, memory, the stable time step and the task graph"));

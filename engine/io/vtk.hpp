@@ -64,6 +64,9 @@ class PvdSeries {
  public:
   explicit PvdSeries(std::filesystem::path target);
   void add(double time, const std::filesystem::path& file);  // file: relative to the .pvd's folder
+  // The entries so far, and a series continued from them (a resumed run; nothing is written).
+  const std::vector<std::pair<double, std::string>>& entries() const { return entries_; }
+  void restore(std::vector<std::pair<double, std::string>> entries) { entries_ = std::move(entries); }
  private:
   std::filesystem::path target_;
   std::vector<std::pair<double, std::string>> entries_;

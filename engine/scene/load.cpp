@@ -175,6 +175,7 @@ class Converter {
     s.output.surface_vtp = has_format("surface_vtp");
     s.output.tets_vtu = has_format("tets_vtu");
     s.output.fields = o["fields"].get<std::vector<std::string>>();
+    s.output.checkpoint_every = o["checkpoint_every"].get<std::uint64_t>();
     // Field names come from the systems' registry (systems/field_registry.hpp): checked here, once,
     // so `perifx check` catches a misspelt field before any meshing.
     const auto known = systems::step_fields();
@@ -453,6 +454,7 @@ Scene load_scene_text(const std::string& text, const fs::path& file) {
                              j["output"].contains("formats");
   detail::validate(j, name);
   Scene s = Converter(name, fs::absolute(file).parent_path()).run(j, file);
+  s.text = text;
   // Every body is a tet mesh, so scenes write its surface (OBJ + PLY) unless they list their formats:
   // what a renderer draws is the body, not its particles. (FEM runs have no embedded mesh: the
   // runner leaves defaulted surfaces out there.)

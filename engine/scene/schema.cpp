@@ -256,6 +256,8 @@ Key build_spec() {
                   "`obj` and `surface_ply` are added to the default (peridynamics; FEM runs have no split mesh).")
               .at_least(1).def(Json::array({"vtu", "ply"})),
           strings("fields", {}, "Particle fields to write; empty = all. Names: see Particle fields below.").def(Json::array()),
+          integer("checkpoint_every", "Write checkpoint.bin (the complete world state, for `perifx run --resume`) "
+                  "every this many frames, and after the last frame; 0 = never.").ge(0).def(10),
       }).def(Json::object()),
   });
 }

@@ -3,6 +3,7 @@
 // The JSON format, with every key's type, default, range and meaning, is generated from the spec in
 // schema.cpp (`perifx spec` prints it; docs copy: assets/scenes/FORMAT.md).
 #pragma once
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -157,11 +158,14 @@ struct Output {
   bool tets_vtu = false;
   bool surfaces_by_default = false;    // obj + surface_ply were added because `formats` was not given
   std::vector<std::string> fields;     // particle fields to write; empty = all registered fields
+  std::uint64_t checkpoint_every = 10; // frames between checkpoints (perifx run --resume); 0 = never
 };
 
 struct Scene {
   std::string name;
   std::filesystem::path source;        // the file it came from ("<memory>" when built in code)
+  std::string text;                    // the JSON text it was loaded from (empty when built in code);
+                                       // checkpoints record its hash so a resume sees a changed scene
   Time time;
   int threads = 0;                     // 0 = all hardware threads
   Vec3 gravity = Vec3(0, -9.81, 0);    // m/s² (Y is up)

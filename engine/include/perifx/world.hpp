@@ -125,6 +125,15 @@ class World {
   TetMeshView reference_mesh() const; // the mesh as built, before any split, at rest
   SurfaceMesh surface() const;      // boundary triangles of the (split) mesh, with fragment ids
 
+  // Checkpoints: the complete state (every array and counter) in one file, written atomically, from
+  // which a world built from the same scene continues byte-identically, on any thread count. `note`
+  // is kept verbatim (the runner keeps its frame bookkeeping there). load_checkpoint throws
+  // io::IoError when the file is not a readable checkpoint, scene::SceneError when it was written for
+  // another scene (naming the top-level keys that changed, or the time step or solver); it returns
+  // the note.
+  void save_checkpoint(const std::filesystem::path& file, const std::string& note = {}) const;
+  std::string load_checkpoint(const std::filesystem::path& file);
+
   const scene::Scene& scene() const;
   const WorldState& state() const;  // internals, for tools and tests that know the components
   WorldState& state_mutable();      // tests only: invalidates cached derived fields

@@ -1,0 +1,211 @@
+// Checkpoint writer and reader (see checkpoint.hpp).
+#include "io/checkpoint.hpp"
+
+#include <cstdio>
+#include <cstring>
+#include <set>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+#include "io/atomic.hpp"
+
+namespace perifx::io {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr char kMagic[8] = {'P', 'E', 'R', 'I', 'F', 'X', 'C', 'K'};
+constexpr std::uint32_t kVersion = 1;
+
+// Worker-slot scratch: sized by the thread count, so a resume on another thread count keeps its own.
+bool thread_dependent(std::string_view name) { return name == "contact.pairs.bonded_stamp"; }
+
+// The scalars of a WorldState that no array holds, in one fixed order for writing and reading.
+template <class W, class F>
+void for_each_scalar(W& w, F&& f) {
+  f(w.clock.time);
+  f(w.clock.dt);
+  f(w.clock.step);
+  auto& c = w.contact;
+  f(c.largest_distance);
+  f(c.grid.cell);
+  f(c.grid.mask);
+  f(c.pairs.skin);
+  f(c.pairs.stamp_base);
+  f(c.pairs.broken_at_build);
+  f(c.pairs.additions);
+  f(c.pairs.valid);
+  f(c.pairs.builds);
+  auto& e = w.embedded;
+  f(e.crack_faces_total);
+  f(e.vertex_copies_total);
+  f(e.original_vertex_count);
+  f(w.derived.fragment_count);
+}
+
+[[noreturn]] void bad(const fs::path& file, const std::string& why) {
+  throw IoError("cannot resume from checkpoint '" + file.string() + "': " + why);
+}
+
+class Reader {
+ public:
+  Reader(std::string data, fs::path file) : data_(std::move(data)), file_(std::move(file)) {}
+  void read(void* out, std::size_t n) {
+    if (n > data_.size() - at_) bad(file_, "the file is truncated");
+    std::memcpy(out, data_.data() + at_, n);
+    at_ += n;
+  }
+  template <class T>
+  T value() {
+    T v{};
+    read(&v, sizeof v);
+    return v;
+  }
+  std::string text() {
+    const auto n = value<std::uint64_t>();
+    if (n > data_.size() - at_) bad(file_, "the file is truncated");
+    std::string s = data_.substr(at_, n);
+    at_ += n;
+    return s;
+  }
+  const fs::path& file() const { return file_; }
+
+ private:
+  std::string data_;
+  fs::path file_;
+  std::size_t at_ = 0;
+};
+
+void put_text(std::ostream& out, const std::string& s) {
+  const std::uint64_t n = s.size();
+  out.write(reinterpret_cast<const char*>(&n), sizeof n);
+  out.write(s.data(), std::streamsize(n));
+}
+
+nlohmann::json header_json(const CheckpointHeader& h) {
+  return {{"scene_hash", h.scene_hash}, {"scene_text", h.scene_text}, {"solver", h.solver}, {"dt", h.dt},
+          {"step", h.step}, {"particles", h.particles}, {"bonds", h.bonds}, {"note", h.note}};
+}
+
+CheckpointHeader read_header(Reader& in) {
+  char magic[8];
+  in.read(magic, sizeof magic);
+  if (std::memcmp(magic, kMagic, sizeof magic) != 0) bad(in.file(), "not a perifx checkpoint");
+  if (const auto v = in.value<std::uint32_t>(); v != kVersion)
+    bad(in.file(), "format version " + std::to_string(v) + " (this perifx reads version " + std::to_string(kVersion) + ")");
+  CheckpointHeader h;
+  try {
+    const auto j = nlohmann::json::parse(in.text());
+    h.scene_hash = j.at("scene_hash").get<std::string>();
+    h.scene_text = j.at("scene_text").get<std::string>();
+    h.solver = j.at("solver").get<std::string>();
+    h.dt = j.at("dt").get<double>();
+    h.step = j.at("step").get<std::uint64_t>();
+    h.particles = j.at("particles").get<std::uint64_t>();
+    h.bonds = j.at("bonds").get<std::uint64_t>();
+    h.note = j.at("note").get<std::string>();
+  } catch (const nlohmann::json::exception& e) {
+    bad(in.file(), std::string("malformed header (") + e.what() + ")");
+  }
+  return h;
+}
+
+}  // namespace
+
+std::string scene_hash(const std::string& text) {
+  std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a 64
+  for (const unsigned char ch : text) h = (h ^ ch) * 0x100000001b3ull;
+  char buf[20];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+void write_checkpoint(const fs::path& file, const WorldState& w, CheckpointHeader h) {
+  h.step = w.clock.step;
+  h.dt = w.clock.dt;
+  h.particles = w.particles.count();
+  h.bonds = w.bonds.count();
+  write_atomic(file, [&](std::ostream& out) {
+    out.write(kMagic, sizeof kMagic);
+    out.write(reinterpret_cast<const char*>(&kVersion), sizeof kVersion);
+    put_text(out, header_json(h).dump());
+    for_each_array(w, [&](ArrayKind, const char* name, const auto& array) {
+      if (thread_dependent(name)) return;
+      using T = std::decay_t<decltype(array[0])>;
+      put_text(out, name);
+      const std::uint32_t size = sizeof(T);
+      const std::uint64_t count = array.size();
+      out.write(reinterpret_cast<const char*>(&size), sizeof size);
+      out.write(reinterpret_cast<const char*>(&count), sizeof count);
+      out.write(reinterpret_cast<const char*>(array.data()), std::streamsize(count * sizeof(T)));
+    });
+    for_each_scalar(w, [&](const auto& v) { out.write(reinterpret_cast<const char*>(&v), sizeof v); });
+    out.write("END!", 4);
+  });
+}
+
+CheckpointHeader read_checkpoint_header(const fs::path& file) {
+  if (!fs::exists(file)) bad(file, "no such file");
+  Reader in(read_file(file, "checkpoint"), file);
+  return read_header(in);
+}
+
+std::string checkpoint_mismatch(const CheckpointHeader& h, const std::string& scene_text, double dt,
+                                const std::string& solver, std::uint64_t particles, std::uint64_t bonds) {
+  std::string why;
+  auto add = [&](const std::string& s) { why += (why.empty() ? "" : "; ") + s; };
+  if (h.scene_hash != scene_hash(scene_text)) {
+    // Name the top-level keys that differ. threads, name and description do not change the results.
+    std::string keys;
+    try {
+      const auto a = nlohmann::json::parse(h.scene_text), b = nlohmann::json::parse(scene_text);
+      std::set<std::string> names;
+      for (const auto& [k, v] : a.items()) names.insert(k);
+      for (const auto& [k, v] : b.items()) names.insert(k);
+      for (const auto& k : names) {
+        if (k == "threads" || k == "description" || k == "name") continue;
+        const bool in_a = a.contains(k), in_b = b.contains(k);
+        if (in_a && in_b && a[k] == b[k]) continue;
+        keys += (keys.empty() ? "" : ", ") + k + (!in_a ? " (added)" : !in_b ? " (removed)" : "");
+      }
+      if (!keys.empty()) add("the scene changed since the checkpoint (top-level keys: " + keys + ")");
+    } catch (const nlohmann::json::exception&) {
+      add("the scene text changed since the checkpoint (hash " + h.scene_hash + ", now " + scene_hash(scene_text) + ")");
+    }
+  }
+  if (h.dt != dt) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "time step %.17g s, checkpoint has %.17g s", dt, h.dt);
+    add(buf);
+  }
+  if (h.solver != solver) add("solver " + solver + ", checkpoint has " + h.solver);
+  if (why.empty() && (h.particles != particles || h.bonds != bonds))
+    add(std::to_string(particles) + " particles and " + std::to_string(bonds) + " bonds, checkpoint has " +
+        std::to_string(h.particles) + " and " + std::to_string(h.bonds));
+  return why;
+}
+
+CheckpointHeader read_checkpoint(const fs::path& file, WorldState& w) {
+  if (!fs::exists(file)) bad(file, "no such file");
+  Reader in(read_file(file, "checkpoint"), file);
+  CheckpointHeader h = read_header(in);
+  for_each_array(w, [&](ArrayKind, const char* name, auto& array) {
+    if (thread_dependent(name)) return;
+    using T = std::decay_t<decltype(array[0])>;
+    if (const std::string got = in.text(); got != name) bad(file, "expected array '" + std::string(name) + "', found '" + got + "'");
+    const auto size = in.value<std::uint32_t>();
+    const auto count = in.value<std::uint64_t>();
+    if (size != sizeof(T)) bad(file, std::string("array '") + name + "' has elements of another size");
+    array.resize(count);
+    in.read(array.data(), count * sizeof(T));
+  });
+  for_each_scalar(w, [&](auto& v) { v = in.value<std::decay_t<decltype(v)>>(); });
+  char end[4];
+  in.read(end, sizeof end);
+  if (std::memcmp(end, "END!", 4) != 0) bad(file, "the file does not end where expected");
+  return h;
+}
+
+}  // namespace perifx::io

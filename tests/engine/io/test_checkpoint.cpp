@@ -1,0 +1,79 @@
+// Checkpoints (engine/io/checkpoint.cpp, World::save_checkpoint / load_checkpoint): a world restored
+// from a checkpoint holds every array of for_each_array with the same bytes as the world that wrote
+// it and steps on bit for bit, on another thread count; truncated and foreign files are refused.
+#include <doctest/doctest.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+
+#include "components/world_state.hpp"
+#include "perifx/world.hpp"
+
+namespace fs = std::filesystem;
+using namespace perifx;
+
+namespace {
+
+const fs::path kWall = fs::path(PERIFX_SOURCE_DIR) / "tests/engine/data/resume_wall.json";
+
+// Every array's bytes by name (lists of the same name concatenated), thread-dependent scratch left out.
+std::map<std::string, std::string> array_bytes(const WorldState& w) {
+  std::map<std::string, std::string> out;
+  for_each_array(w, [&](ArrayKind, const char* name, const auto& array) {
+    if (std::string(name) == "contact.pairs.bonded_stamp") return;
+    out[name].append(reinterpret_cast<const char*>(array.data()), array.size() * sizeof(array[0]));
+  });
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("checkpoint: a restored world has every array's bytes and steps on bit for bit") {
+  auto sc = scene::load_scene_file(kWall);
+  sc.threads = 2;
+  World a(sc);
+  a.step(60);  // the ball is through: broken bonds, split mesh, contact pairs
+  const fs::path file = fs::temp_directory_path() / ("perifx_checkpoint_" + std::to_string(::getpid()) + ".bin");
+  a.save_checkpoint(file, "note");
+  sc.threads = 1;
+  World b(sc);
+  CHECK(b.load_checkpoint(file) == "note");
+  CHECK(b.step_count() == 60);
+  CHECK(b.time() == a.time());
+  const auto bytes_a = array_bytes(a.state()), bytes_b = array_bytes(b.state());
+  for (const auto& [name, bytes] : bytes_a) {
+    INFO("array " << name);
+    CHECK(bytes == bytes_b.at(name));
+  }
+  CHECK(a.contact_counters().list_builds == b.contact_counters().list_builds);
+  CHECK(a.fragment_count() == b.fragment_count());
+  CHECK(a.fragment_count() > 1);
+  a.step(40);
+  b.step(40);
+  CHECK(std::memcmp(a.positions().data(), b.positions().data(), a.positions().size_bytes()) == 0);
+  CHECK(array_bytes(a.state()) == array_bytes(b.state()));
+
+  SUBCASE("a truncated file is refused") {
+    fs::resize_file(file, fs::file_size(file) / 2);
+    World c(sc);
+    CHECK_THROWS_WITH_AS(c.load_checkpoint(file), doctest::Contains("the file is truncated"), io::IoError);
+  }
+  SUBCASE("a file that is not a checkpoint is refused") {
+    std::ofstream(file) << "{\"this\": \"is JSON, not a checkpoint\"}";
+    World c(sc);
+    CHECK_THROWS_WITH_AS(c.load_checkpoint(file), doctest::Contains("not a perifx checkpoint"), io::IoError);
+  }
+  SUBCASE("another scene's checkpoint is refused") {
+    auto other = sc;
+    other.text = sc.text.substr(0, sc.text.find("\"gravity\"")) + "\"gravity\": [0, -1, 0]," +
+                 sc.text.substr(sc.text.find("\"time\"") - 2);
+    other.gravity = Vec3(0, -1, 0);
+    World c(other);
+    CHECK_THROWS_WITH_AS(c.load_checkpoint(file), doctest::Contains("top-level keys: gravity"), scene::SceneError);
+  }
+  fs::remove(file);
+}
