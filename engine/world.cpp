@@ -196,7 +196,7 @@ SurfaceMesh World::surface() const {
   field("fragment_id");  // current in w.derived.fragment_id
   impl_->scheduler->execute([&] {
     systems::update_mesh_vertices(w, 0.0);  // dt = 0: vertices current without moving them again
-    systems::extract_surface(w, &w.derived.fragment_id, surface);
+    systems::extract_surface(w, &w.derived.fragment_id, surface, impl_->scene.output.min_piece_tets);
   });
   return surface;
 }

@@ -250,6 +250,9 @@ Key build_spec() {
                   "a material has a finite critical_stretch, `obj` and `surface_ply` are added to the default.")
               .at_least(1).def(Json::array({"vtu", "ply"})),
           strings("fields", {}, "Particle fields to write; empty = all. Names: see Particle fields below.").def(Json::array()),
+          integer("min_piece_tets", "Pieces (components of alive bonds, `fragment_id`) with fewer tets than this "
+                  "are left out of the surface files (obj, surface_ply, surface_vtp): dust. 0 keeps every piece; "
+                  "the particle files keep every particle.").ge(0).def(0),
       }).def(Json::object()),
   });
 }

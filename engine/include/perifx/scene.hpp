@@ -3,6 +3,7 @@
 // The JSON format, with every key's type, default, range and meaning, is generated from the spec in
 // schema.cpp (`perifx spec` prints it; docs copy: assets/scenes/FORMAT.md).
 #pragma once
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -154,6 +155,7 @@ struct Output {
   bool surface_vtp = false;            // surface.NNNN.vtp + surface.pvd (ParaView)
   bool tets_vtu = false;
   std::vector<std::string> fields;     // particle fields to write; empty = all registered fields
+  std::uint32_t min_piece_tets = 0;    // surface files leave out pieces with fewer tets (0: keep all)
 };
 
 struct Scene {
