@@ -4,9 +4,12 @@
 //     η = y_j − y_p, ω the influence weight, V_j the volume), in the neighbour list's fixed order:
 //       K = Σ ω ξ⊗ξ V_j,  F_p = (Σ ω η⊗ξ V_j) K⁻¹,  Ḟ_p = (Σ ω (v_j − v_p)⊗ξ V_j) K⁻¹.
 //     F_p is used when p has ≥ 4 alive bonds, K is well conditioned (‖K‖‖K⁻¹‖ ≤ 1e4, Frobenius) and
-//     F_p is well conditioned (det > 0, ‖F‖², ‖F⁻¹‖² ≤ 12, i.e. no stretch beyond ~3.5×). Otherwise
-//     F_p ← R, the rotation of the polar decomposition of the previous F_p (a piece of one or a few
-//     particles moves rigidly and keeps its last rotation), Ḟ_p ← 0. A vertex v with tet group G
+//     F_p is well conditioned (det > 0, ‖F‖², ‖F⁻¹‖² ≤ 12, i.e. no stretch beyond ~3.5×). A badly
+//     stretched or inverted F_p is replaced by its own rotation. With too few bonds or K
+//     ill-conditioned, F_p ← the rotation of N + μ R_old (R_old: rotation of the previous F_p,
+//     μ = 1e-3 tr K): the rotation that best maps the few alive bonds, the last rotation filling what
+//     they leave free (a lone particle keeps its last rotation; two bonded particles turn with their
+//     bond). Ḟ_p ← 0 in both. A vertex v with tet group G
 //     (the tets that currently hold v; tet t is particle t), weights w_t = m_t / Σ_G m:
 //       x_v = Σ w_t (y_t + F_t (X_v − x_t)),   v_v = Σ w_t (v_t + Ḟ_t (X_v − x_t)).
 //     Rigid and affine motion with full families give F exact to round-off, so x_v is exact; a vertex
@@ -22,6 +25,8 @@
 //     particles separate, kept for comparison).
 // Parallel over particles, then over vertices, each element written by one task: deterministic.
 // Reads:  position, velocity, bond_alive, mesh.   Writes: mesh (F, Ḟ, vertex positions and velocities).
+#include <algorithm>
+
 #include "parallel.hpp"
 #include "systems.hpp"
 
@@ -73,7 +78,12 @@ void particle_deformation(WorldState& w, std::size_t p) {
     Fd.setZero();
     return;
   }
-  F = polar_rotation(F);  // too few bonds or K ill-conditioned: hold the last rotation
+  // Too few bonds or K ill-conditioned: the rotation that best maps the alive bonds (regularized
+  // Kabsch: maximize tr(Rᵀ M), M = Σ ω V η⊗ξ + μ R_old). The last rotation fills the directions the
+  // bonds do not fix (about a lone bond's axis; all of them for a particle with no bond).
+  const Mat3 held = polar_rotation(F);
+  const double mu = 1e-3 * std::max(K.trace(), 0.0);
+  F = alive > 0 && mu > 0.0 ? polar_rotation(N + mu * held) : held;
   Fd.setZero();
 }
 

@@ -141,7 +141,7 @@ SurfaceCheckReport check_run_surfaces(const std::filesystem::path& dir, const Su
     }
     for (const auto& [key, faces] : edges)
       if (faces.size() != 2) {
-        ++c.open_edges;
+        ++(faces.size() < 2 ? c.open_edges : c.nonmanifold_edges);
         shell_open[find(faces[0])] = 1;
       }
     struct Shell {
@@ -202,24 +202,31 @@ void print_surface_check(std::ostream& out, const SurfaceCheckReport& r) {
   char buf[256];
   std::snprintf(buf, sizeof buf, "horizon %.6g m\n", r.horizon);
   out << buf;
-  out << "frame     time [s]  vertices  triangles  pieces   far  inverted  open  stretched  longest edge [m]  cavities\n";
+  out << "frame     time [s]  vertices  triangles  pieces   far  inverted  open  non-manifold  stretched  longest edge [m]  cavities\n";
   SurfaceFrameCheck total;
+  bool any_stretch = false;
   for (const auto& f : r.frames) {
     char stretched[24];
     if (f.stretched_triangles < 0) std::snprintf(stretched, sizeof stretched, "n/a");
     else std::snprintf(stretched, sizeof stretched, "%lld", f.stretched_triangles);
-    std::snprintf(buf, sizeof buf, "%5llu  %11.5g  %8zu  %9zu  %6zu  %4zu  %8zu  %4zu  %9s  %16.5g  %8zu\n",
+    std::snprintf(buf, sizeof buf, "%5llu  %11.5g  %8zu  %9zu  %6zu  %4zu  %8zu  %4zu  %12zu  %9s  %16.5g  %8zu\n",
                   static_cast<unsigned long long>(f.frame), f.time, f.vertices, f.triangles, f.pieces, f.far_vertices,
-                  f.inverted_shells, f.open_edges, stretched, f.longest_edge, f.cavities);
+                  f.inverted_shells, f.open_edges, f.nonmanifold_edges, stretched, f.longest_edge, f.cavities);
     out << buf;
     total.far_vertices += f.far_vertices;
     total.inverted_shells += f.inverted_shells;
     total.open_edges += f.open_edges;
+    total.nonmanifold_edges += f.nonmanifold_edges;
+    any_stretch = any_stretch || f.stretched_triangles >= 0;
     total.stretched_triangles = std::max(total.stretched_triangles, 0LL) + std::max(f.stretched_triangles, 0LL);
     total.longest_edge = std::max(total.longest_edge, f.longest_edge);
   }
-  std::snprintf(buf, sizeof buf, "total  far %zu, inverted %zu, open %zu, stretched %lld, longest edge %.5g m: %s\n",
-                total.far_vertices, total.inverted_shells, total.open_edges, std::max(total.stretched_triangles, 0LL),
+  char stretched[24];
+  if (any_stretch) std::snprintf(stretched, sizeof stretched, "%lld", std::max(total.stretched_triangles, 0LL));
+  else std::snprintf(stretched, sizeof stretched, "n/a");
+  std::snprintf(buf, sizeof buf,
+                "total  far %zu, inverted %zu, open %zu, non-manifold %zu, stretched %s, longest edge %.5g m: %s\n",
+                total.far_vertices, total.inverted_shells, total.open_edges, total.nonmanifold_edges, stretched,
                 total.longest_edge, r.issues() ? "PROBLEMS" : "ok");
   out << buf;
 }

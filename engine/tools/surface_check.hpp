@@ -7,7 +7,9 @@
 //              volume is negative, unless a positive closed shell of the same piece encloses them
 //              (bounding boxes): those bound a cavity or a closed internal crack and are counted
 //              apart, as `cavities` (not a problem);
-//   open       edges used by one triangle only (or by more than two);
+//   open       edges used by one triangle only;
+//   non-manifold  edges used by more than two triangles (two groups of tets that meet along an edge
+//              whose end vertices were not split apart);
 //   stretched  triangles with an edge longer than 3× its reference length while the particles of
 //              their tet's neighbourhood (same piece, within δ at frame 0) did not stretch 3×;
 //   longest    the longest surface edge, m.
@@ -41,12 +43,12 @@ struct SurfaceFrameCheck {
   std::uint64_t frame = 0;
   double time = 0.0;
   std::size_t vertices = 0, triangles = 0, pieces = 0;
-  std::size_t far_vertices = 0, inverted_shells = 0, open_edges = 0;
+  std::size_t far_vertices = 0, inverted_shells = 0, open_edges = 0, nonmanifold_edges = 0;
   std::size_t cavities = 0;            // negative closed shells inside a positive one (not counted in issues)
   long long stretched_triangles = -1;  // -1: the file has no reference positions / tets
   double longest_edge = 0.0;           // m
   std::size_t issues() const {
-    return far_vertices + inverted_shells + open_edges + static_cast<std::size_t>(std::max(0LL, stretched_triangles));
+    return far_vertices + inverted_shells + open_edges + nonmanifold_edges + static_cast<std::size_t>(std::max(0LL, stretched_triangles));
   }
 };
 

@@ -73,6 +73,7 @@ TEST_CASE("check-surface: a short fracture run has no far, inverted, open or str
     CHECK(f.far_vertices == 0);
     CHECK(f.inverted_shells == 0);
     CHECK(f.open_edges == 0);
+    CHECK(f.nonmanifold_edges == 0);
     CHECK(f.stretched_triangles == 0);
   }
   CHECK(report.issues() == 0);
