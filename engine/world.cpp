@@ -178,9 +178,12 @@ ContactCounters World::contact_counters() const {
 bool World::has_embedded_mesh() const { return !impl_->state->embedded.tets.empty(); }
 
 TetMeshView World::tet_mesh() const {
-  const WorldState& w = *impl_->state;
+  WorldState& w = *impl_->state;
   if (w.settings.solver != scene::Solver::peridynamics)
     return {w.particles.position, w.mesh.tets, w.particles.reference_position};
+  // The default vertex motion is evaluated on demand (systems/mesh_vertices.cpp).
+  if (!w.embedded.tets.empty() && w.embedded.motion == VertexMotion::deformation)
+    impl_->scheduler->execute([&] { systems::update_mesh_vertices(w, 0.0); });
   return {w.embedded.vertices, w.embedded.tets, w.embedded.reference_vertices};
 }
 

@@ -23,6 +23,9 @@
 //   VertexMotion::embedded: x_v = X_v + Σ_p w_vp (y_p − x_p), v_v = Σ_p w_vp v_p with the affine-fit
 //     weights of systems/embedded_mesh.cpp (fixed at setup/split; extrapolates once the support
 //     particles separate, kept for comparison).
+// In the step graph the deformation mode does nothing: the engine evaluates it when the mesh is read
+// (World::surface, World::tet_mesh), so its cost is per output frame, not per step, and "the last
+// rotation" a bondless particle keeps is the one of the last evaluation.
 // Parallel over particles, then over vertices, each element written by one task: deterministic.
 // Reads:  position, velocity, bond_alive, mesh.   Writes: mesh (F, Ḟ, vertex positions and velocities).
 #include <algorithm>
@@ -154,7 +157,12 @@ void update_mesh_vertices(WorldState& w, double dt) {
 SystemDecl mesh_vertex_system(WorldState& w) {
   return {"mesh_vertices", {Component::position, Component::velocity, Component::bond_alive, Component::mesh},
           {Component::mesh},
-          [&w] { update_mesh_vertices(w, w.clock.dt); }};
+          [&w] {
+            // VertexMotion::deformation places vertices from the current state alone, so it is evaluated
+            // on demand (World::surface, World::tet_mesh: once per output frame) rather than every step;
+            // the paper's Eq 22 integrates and must run every step.
+            if (w.embedded.motion != VertexMotion::deformation) update_mesh_vertices(w, w.clock.dt);
+          }};
 }
 
 }  // namespace perifx::systems
