@@ -24,7 +24,13 @@ enum class FaceState : std::uint8_t { intact = 0, cracked = 1, separated = 2 };
 
 // How vertices follow the particles.
 enum class VertexMotion : std::uint8_t {
-  // Default. Each vertex is embedded in the particles of its tet group: x_v = X_v + Σ w_p (y_p − x_p)
+  // Default. Each particle p carries a local deformation gradient F_p from its alive bonds (the
+  // peridynamic shape tensor, systems/README.md §6.5), replaced by the rotation it last had when its
+  // family is too small, K is ill-conditioned or F is badly stretched or inverted; a vertex is the
+  // mass-weighted mean of its tet group's predictions y_p + F_p (X_v − x_p). Rigid and affine motion
+  // are exact, and a vertex stays within a few tet sizes of its own group's particles.
+  deformation = 2,
+  // The former default: each vertex is embedded in the particles of its tet group: x_v = X_v + Σ w_p (y_p − x_p)
   // with weights fixed at setup / at the split that made the group, w = the mass-weighted least-
   // squares affine fit evaluated at X_v. Reproduces any affine (so any rigid) motion to round-off;
   // velocity v_v = Σ w_p v_p is Eq 20–21 with fit weights instead of m_p/4.
@@ -35,7 +41,7 @@ enum class VertexMotion : std::uint8_t {
 };
 
 struct EmbeddedMesh {
-  VertexMotion motion = VertexMotion::embedded;
+  VertexMotion motion = VertexMotion::deformation;
 
   // ---- per vertex (grows when vertices split) ----
   std::vector<Vec3> reference_vertices;   // X_v, m (a copy gets its original's)
@@ -48,6 +54,10 @@ struct EmbeddedMesh {
   std::vector<std::array<std::uint32_t, 2>> weight_rows;
   std::vector<std::uint32_t> weight_particle;
   std::vector<double> weight_value;
+
+  // ---- per particle = per tet (VertexMotion::deformation) ----
+  std::vector<Mat3> deformation;       // F_p, the particle's local deformation gradient (or its last rotation)
+  std::vector<Mat3> deformation_rate;  // Ḟ_p, 1/s (zero where F_p is a held rotation)
 
   // ---- per tet ----
   std::vector<std::array<std::uint32_t, 4>> tets;        // current vertex indices (splitting rewrites)

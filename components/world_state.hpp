@@ -47,7 +47,13 @@ struct DerivedFields {
   std::vector<Vec3> displacement;          // y − x, m
   std::vector<std::uint32_t> alive_bonds;  // n_i
   std::vector<double> plastic_strain;      // mean |e^p_ij|/|ξ_ij| over alive bonds (0 with none)
-  std::vector<std::uint32_t> fragment_id;  // connected component of alive bonds (smallest particle index)
+  // Stable piece id per particle (systems/fragments.cpp): a piece that splits keeps its id on its
+  // largest part; the other parts get ids never used before (from next_fragment_id on).
+  std::vector<std::uint32_t> fragment_id;
+  std::vector<std::uint32_t> fragment_root;  // scratch: smallest particle index of i's component
+  std::vector<std::uint32_t> fragment_size;  // scratch: per root, the component's particle count
+  std::vector<std::uint32_t> fragment_keep;  // scratch: per old id, the root of the part that keeps it
+  std::uint32_t next_fragment_id = 0;        // first id not yet used (starts at the particle count)
   std::size_t fragment_count = 0;
 };
 
@@ -154,6 +160,8 @@ void for_each_array(W& w, F&& f) {
   f(K::mesh, "embedded.weight_rows", e.weight_rows);
   f(K::mesh, "embedded.weight_particle", e.weight_particle);
   f(K::mesh, "embedded.weight_value", e.weight_value);
+  f(K::mesh, "embedded.deformation", e.deformation);
+  f(K::mesh, "embedded.deformation_rate", e.deformation_rate);
   f(K::mesh, "embedded.tets", e.tets);
   f(K::mesh, "embedded.neighbors", e.neighbors);
   f(K::mesh, "embedded.face_pair", e.face_pair);
@@ -201,6 +209,9 @@ void for_each_array(W& w, F&& f) {
   f(K::other, "derived.plastic_strain", w.derived.plastic_strain);
   f(K::other, "derived.alive_bonds", w.derived.alive_bonds);
   f(K::other, "derived.fragment_id", w.derived.fragment_id);
+  f(K::other, "derived.fragment_root", w.derived.fragment_root);
+  f(K::other, "derived.fragment_size", w.derived.fragment_size);
+  f(K::other, "derived.fragment_keep", w.derived.fragment_keep);
 }
 
 }  // namespace perifx

@@ -1,5 +1,6 @@
 #include "runner.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -9,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "components/world_state.hpp"
 #include "io/atomic.hpp"
 #include "io/obj.hpp"
 #include "io/ply.hpp"
@@ -70,6 +72,9 @@ io::RunMesh run_mesh(const World& world) {
   m.tet_count = tets.size();
   m.hash = io::tet_hash(tets, mesh.vertices.size());
   if (m.vertices_are_particles) m.tets = tets;
+  const auto& out = world.scene().output;
+  if (out.obj || out.surface_ply || out.surface_vtp)
+    for (const auto& body : world.state().bodies) m.horizon = std::max(m.horizon, body.horizon);
   return m;
 }
 

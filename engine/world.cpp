@@ -179,9 +179,12 @@ ContactCounters World::contact_counters() const {
 bool World::has_embedded_mesh() const { return !impl_->state->embedded.tets.empty(); }
 
 TetMeshView World::tet_mesh() const {
-  const WorldState& w = *impl_->state;
+  WorldState& w = *impl_->state;
   if (w.settings.solver != scene::Solver::peridynamics)
     return {w.particles.position, w.mesh.tets, w.particles.reference_position};
+  // The default vertex motion is evaluated on demand (systems/mesh_vertices.cpp).
+  if (!w.embedded.tets.empty() && w.embedded.motion == VertexMotion::deformation)
+    impl_->scheduler->execute([&] { systems::update_mesh_vertices(w, 0.0); });
   return {w.embedded.vertices, w.embedded.tets, w.embedded.reference_vertices};
 }
 
@@ -197,7 +200,7 @@ SurfaceMesh World::surface() const {
   field("fragment_id");  // current in w.derived.fragment_id
   impl_->scheduler->execute([&] {
     systems::update_mesh_vertices(w, 0.0);  // dt = 0: vertices current without moving them again
-    systems::extract_surface(w, &w.derived.fragment_id, surface);
+    systems::extract_surface(w, &w.derived.fragment_id, surface, impl_->scene.output.min_piece_tets);
   });
   return surface;
 }

@@ -1,9 +1,15 @@
-// Fragments: connected components of the graph of alive bonds (particles are nodes). Computed on
-// request for output frames and the run summary, not every step. Sequential union-find with the
-// smaller root always winning (union_find.hpp), so every component's root is its smallest particle
-// index: the ids are deterministic and independent of thread count. A particle with no alive bond
-// is a fragment.
-// Reads: bond_alive.   Writes: nothing in the world (the caller's fragment_id array).
+// Fragments (pieces): connected components of the graph of alive bonds (particles are nodes). A
+// particle with no alive bond is a piece. Computed on request (output frames, the run summary), not
+// every step. Sequential union-find with the smaller root always winning (union_find.hpp), so every
+// component's root is its smallest particle index.
+// Stable ids (update_piece_ids, the `fragment_id` field): the first time, a piece's id is its root
+// (so an unbroken run writes the same ids as the plain components). Later, the parts of an old piece
+// (bonds never heal, so a component lies inside one old piece) are ranked: the part with the most
+// particles keeps the old id, ties to the part holding the smallest particle index; every other part
+// gets next_fragment_id++ (starting at the particle count, so never an id used before), handed out in
+// increasing root order. Ids thus depend on the alive bonds at the steps they were requested at (one
+// request per output frame in a run), never on the thread count: everything here is serial.
+// Reads: bond_alive.   Writes: derived (fragment_id, its scratch arrays, counts).
 #include "field_registry.hpp"
 #include "systems.hpp"
 #include "union_find.hpp"
@@ -23,12 +29,43 @@ std::size_t compute_fragments(const WorldState& w, std::vector<std::uint32_t>& i
   return sets.flatten();
 }
 
+std::size_t update_piece_ids(WorldState& w) {
+  DerivedFields& d = w.derived;
+  const std::size_t n = w.particles.count();
+  const std::size_t count = compute_fragments(w, d.fragment_root);
+  constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+  if (d.fragment_id.size() != n) {  // first request: ids are the roots
+    d.fragment_id = d.fragment_root;
+    d.next_fragment_id = static_cast<std::uint32_t>(n);
+    return count;
+  }
+  d.fragment_size.assign(n, 0);
+  for (std::uint32_t i = 0; i < n; ++i) ++d.fragment_size[d.fragment_root[i]];
+  d.fragment_keep.assign(d.next_fragment_id, kNone);
+  for (std::uint32_t r = 0; r < n; ++r) {  // roots in increasing order: ties go to the smaller root
+    if (d.fragment_root[r] != r) continue;
+    std::uint32_t& keep = d.fragment_keep[d.fragment_id[r]];
+    if (keep == kNone || d.fragment_size[r] > d.fragment_size[keep]) keep = r;
+  }
+  // New id per root, written in place over the root's old id (the root is visited before its
+  // members, which read it through fragment_root).
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const std::uint32_t r = d.fragment_root[i];
+    if (r == i) {
+      if (d.fragment_keep[d.fragment_id[i]] != i) d.fragment_id[i] = d.next_fragment_id++;
+    } else {
+      d.fragment_id[i] = d.fragment_id[r];
+    }
+  }
+  return count;
+}
 
 void register_fragment_fields(FieldRegistry& r) {
   r.push_back(make_field("fragment_id", FieldType::u32, 1, "1",
-                         "connected component of alive bonds: its smallest particle index",
+                         "stable piece id (component of alive bonds): the smallest particle index at first, "
+                         "kept by a piece's largest part when it splits; other parts get new ids (>= particle count)",
                          [](WorldState& w, FieldView& v) {
-    w.derived.fragment_count = compute_fragments(w, w.derived.fragment_id);
+    w.derived.fragment_count = update_piece_ids(w);
     view_array(v, w.derived.fragment_id);
   }, true));
 }

@@ -3,22 +3,35 @@
 // (original surface) or its face pair is separated (crack surface). Triangles are wound outward:
 // tets are positively oriented, and the face opposite local vertex k is taken in the order below.
 // Vertices no triangle uses are dropped; the rest keep their relative order, so the output is
-// deterministic. Fragment ids come from the caller (systems::compute_fragments), per particle = tet.
+// deterministic. Piece ids come from the caller (derived.fragment_id), per particle = tet; with
+// min_piece_tets > 0 the triangles of pieces with fewer particles (= tets) are left out. Each vertex
+// also carries its velocity, reference position and embedded-mesh index.
 // Reads: mesh (embedded mesh).
 #include "systems.hpp"
 
 namespace perifx::systems {
 
-void extract_surface(const WorldState& w, const std::vector<std::uint32_t>* fragment_id, SurfaceMesh& out) {
+void extract_surface(const WorldState& w, const std::vector<std::uint32_t>* fragment_id, SurfaceMesh& out,
+                     std::uint32_t min_piece_tets) {
   static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
   const EmbeddedMesh& e = w.embedded;
   out = SurfaceMesh{};
   std::vector<std::uint32_t> remap(e.vertices.size(), 0);
+  // Tets per piece, when small pieces are dropped (ids are below 2·tets: see fragments.cpp).
+  std::vector<std::uint32_t> piece_tets;
+  const bool drop = min_piece_tets > 0 && fragment_id && fragment_id->size() == e.tets.size();
+  if (drop) {
+    for (std::uint32_t id : *fragment_id) {
+      if (id >= piece_tets.size()) piece_tets.resize(std::size_t{id} + 1, 0);
+      ++piece_tets[id];
+    }
+  }
   for (std::uint32_t t = 0; t < e.tets.size(); ++t)
     for (int k = 0; k < 4; ++k) {
       const std::int32_t pair = e.face_pair[t][static_cast<std::size_t>(k)];
       const bool crack = pair >= 0;
       if (crack && e.pair_state[static_cast<std::size_t>(pair)] != FaceState::separated) continue;
+      if (drop && piece_tets[(*fragment_id)[t]] < min_piece_tets) continue;
       std::array<std::uint32_t, 3> tri{};
       for (int c = 0; c < 3; ++c) {
         tri[static_cast<std::size_t>(c)] = e.tets[t][static_cast<std::size_t>(kFace[k][c])];
@@ -34,6 +47,9 @@ void extract_surface(const WorldState& w, const std::vector<std::uint32_t>* frag
     if (!remap[v]) continue;
     remap[v] = next++;
     out.vertices.push_back(e.vertices[v]);
+    out.velocity.push_back(e.vertex_velocity[v]);
+    out.reference.push_back(e.reference_vertices[v]);
+    out.source.push_back(static_cast<std::uint32_t>(v));
   }
   for (auto& tri : out.triangles)
     for (auto& v : tri) v = remap[v];

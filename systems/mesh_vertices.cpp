@@ -1,26 +1,130 @@
-// Mesh vertices system (paper Eq 20–22): moves the embedded mesh's vertices with the particles,
-// after mesh_split, so every vertex copy follows only its own tet group.
+// Mesh vertices system (paper Eq 20–22, systems/README.md §6.5): moves the embedded mesh's vertices
+// with the particles, after mesh_split, so every vertex copy follows only its own tet group.
+//   VertexMotion::deformation (default): per particle p, over its alive bonds j (ξ = x_j − x_p,
+//     η = y_j − y_p, ω the influence weight, V_j the volume), in the neighbour list's fixed order:
+//       K = Σ ω ξ⊗ξ V_j,  F_p = (Σ ω η⊗ξ V_j) K⁻¹,  Ḟ_p = (Σ ω (v_j − v_p)⊗ξ V_j) K⁻¹.
+//     F_p is used when p has ≥ 4 alive bonds, K is well conditioned (‖K‖‖K⁻¹‖ ≤ 1e4, Frobenius) and
+//     F_p is well conditioned (det > 0, ‖F‖², ‖F⁻¹‖² ≤ 12, i.e. no stretch beyond ~3.5×). A badly
+//     stretched or inverted F_p is replaced by its own rotation. With too few bonds or K
+//     ill-conditioned, F_p ← the rotation of N + μ R_old (R_old: rotation of the previous F_p,
+//     μ = 1e-3 tr K): the rotation that best maps the few alive bonds, the last rotation filling what
+//     they leave free (a lone particle keeps its last rotation; two bonded particles turn with their
+//     bond). Ḟ_p ← 0 in both. A vertex v with tet group G
+//     (the tets that currently hold v; tet t is particle t), weights w_t = m_t / Σ_G m:
+//       x_v = Σ w_t (y_t + F_t (X_v − x_t)),   v_v = Σ w_t (v_t + Ḟ_t (X_v − x_t)).
+//     Rigid and affine motion with full families give F exact to round-off, so x_v is exact; a vertex
+//     is a convex combination of its group's predictions, each within |F_t| |X_v − x_t| (≤ ~3.5 tet
+//     sizes) of its particle, so it never extrapolates away from its group.
 //   VertexMotion::paper (Eq 20–22 as written): v_v = Σ_t (m_t/4) v_t / Σ_t (m_t/4) over the tets t
 //     that currently hold v, then x_v += dt·v_v (v_t: end-of-step particle velocities).
 //     Exact for translation; for a rotation the explicit update leaves the circle (radius grows by
 //     ~½(ω dt)² per step) and boundary vertices, whose tet star is lopsided, turn with the star's
 //     centroid rather than with themselves. Measured in tests/systems/test_embedded_mesh.cpp.
-//   VertexMotion::embedded (default): x_v = X_v + Σ_p w_vp (y_p − x_p), v_v = Σ_p w_vp v_p with the
-//     affine-fit weights of systems/embedded_mesh.cpp. Same inputs (the group's particles, mass
-//     weighted), but positions are a function of the particle positions, so there is no drift and
-//     rigid (any affine) motion is reproduced to round-off.
-// Parallel over vertices, each written by one task: deterministic.
-// Reads:  position, velocity, mesh.   Writes: mesh (vertex positions and velocities).
+//   VertexMotion::embedded: x_v = X_v + Σ_p w_vp (y_p − x_p), v_v = Σ_p w_vp v_p with the affine-fit
+//     weights of systems/embedded_mesh.cpp (fixed at setup/split; extrapolates once the support
+//     particles separate, kept for comparison).
+// In the step graph the deformation mode does nothing: the engine evaluates it when the mesh is read
+// (World::surface, World::tet_mesh), so its cost is per output frame, not per step, and "the last
+// rotation" a bondless particle keeps is the one of the last evaluation.
+// Parallel over particles, then over vertices, each element written by one task: deterministic.
+// Reads:  position, velocity, bond_alive, mesh.   Writes: mesh (F, Ḟ, vertex positions and velocities).
+#include <algorithm>
+
 #include "parallel.hpp"
 #include "systems.hpp"
 
 namespace perifx::systems {
+
+namespace {
+
+// Squared Frobenius norms of A and A⁻¹ (A⁻¹ via the adjugate); false when det A ≤ 0.
+bool conditioned(const Mat3& A, double limit_sq, double& det) {
+  det = A.determinant();
+  if (!(det > 0.0)) return false;
+  const Mat3 inv = A.inverse();
+  return A.squaredNorm() <= limit_sq && inv.squaredNorm() <= limit_sq;
+}
+
+// F_p and Ḟ_p of one particle (see the header comment).
+void particle_deformation(WorldState& w, std::size_t p) {
+  EmbeddedMesh& e = w.embedded;
+  const Bonds& b = w.bonds;
+  const auto& x = w.particles.reference_position;
+  const auto& y = w.particles.position;
+  const auto& vel = w.particles.velocity;
+  const auto& vol = w.particles.volume;
+  Mat3 K = Mat3::Zero(), N = Mat3::Zero(), Nd = Mat3::Zero();
+  std::uint32_t alive = 0;
+  for (std::uint32_t k = b.offsets[p], end = b.offsets[p + 1]; k < end; ++k) {
+    if (!b.alive[k]) continue;
+    const std::uint32_t j = b.neighbor[k];
+    const Vec3 xi = x[j] - x[p];
+    const Vec3 wxi = (b.weight[k] * vol[j]) * xi;
+    K += wxi * xi.transpose();
+    N += (y[j] - y[p]) * wxi.transpose();
+    Nd += (vel[j] - vel[p]) * wxi.transpose();
+    ++alive;
+  }
+  Mat3& F = e.deformation[p];
+  Mat3& Fd = e.deformation_rate[p];
+  double det = 0.0;
+  // K's scale is Σ ω V |ξ|²; the condition test is scale-free (‖K‖²‖K⁻¹‖² ≤ 1e8 with ‖I‖² = 3).
+  if (alive >= 4 && (det = K.determinant()) > 0.0 && K.squaredNorm() * K.inverse().squaredNorm() <= 1e8) {
+    const Mat3 Kinv = K.inverse();
+    const Mat3 Fnew = N * Kinv;
+    if (conditioned(Fnew, 12.0, det)) {
+      F = Fnew;
+      Fd = Nd * Kinv;
+      return;
+    }
+    F = polar_rotation(Fnew);  // badly stretched or inverted: its rotation only
+    Fd.setZero();
+    return;
+  }
+  // Too few bonds or K ill-conditioned: the rotation that best maps the alive bonds (regularized
+  // Kabsch: maximize tr(Rᵀ M), M = Σ ω V η⊗ξ + μ R_old). The last rotation fills the directions the
+  // bonds do not fix (about a lone bond's axis; all of them for a particle with no bond).
+  const Mat3 held = polar_rotation(F);
+  const double mu = 1e-3 * std::max(K.trace(), 0.0);
+  F = alive > 0 && mu > 0.0 ? polar_rotation(N + mu * held) : held;
+  Fd.setZero();
+}
+
+}  // namespace
 
 void update_mesh_vertices(WorldState& w, double dt) {
   EmbeddedMesh& e = w.embedded;
   const auto& y = w.particles.position;
   const auto& x = w.particles.reference_position;
   const auto& vel = w.particles.velocity;
+  if (e.motion == VertexMotion::deformation) {
+    const std::size_t np = w.particles.count();
+    if (e.deformation.size() != np) {  // first call (setup): start from the identity
+      e.deformation.assign(np, Mat3::Identity());
+      e.deformation_rate.assign(np, Mat3::Zero());
+    }
+    parallel_for_each(np, [&](std::size_t p) { particle_deformation(w, p); }, 256);
+    const auto& mass = w.particles.mass;
+    parallel_for_each(e.vertices.size(), [&](std::size_t v) {
+      const std::uint32_t o = e.origin[v];
+      const Vec3 X = e.reference_vertices[v];
+      Vec3 pos = Vec3::Zero(), vv = Vec3::Zero();
+      double m = 0.0;
+      for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
+        const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
+        if (e.tets[t][s] != v) continue;
+        const Vec3 d = X - x[t];
+        pos += mass[t] * (y[t] + e.deformation[t] * d);
+        vv += mass[t] * (vel[t] + e.deformation_rate[t] * d);
+        m += mass[t];
+      }
+      if (m > 0.0) {
+        e.vertices[v] = pos / m;
+        e.vertex_velocity[v] = vv / m;
+      }
+    }, 1024);
+    return;
+  }
   if (e.motion == VertexMotion::embedded) {
     parallel_for_each(e.vertices.size(), [&](std::size_t v) {
       Vec3 u = Vec3::Zero(), vv = Vec3::Zero();
@@ -51,8 +155,14 @@ void update_mesh_vertices(WorldState& w, double dt) {
 }
 
 SystemDecl mesh_vertex_system(WorldState& w) {
-  return {"mesh_vertices", {Component::position, Component::velocity, Component::mesh}, {Component::mesh},
-          [&w] { update_mesh_vertices(w, w.clock.dt); }};
+  return {"mesh_vertices", {Component::position, Component::velocity, Component::bond_alive, Component::mesh},
+          {Component::mesh},
+          [&w] {
+            // VertexMotion::deformation places vertices from the current state alone, so it is evaluated
+            // on demand (World::surface, World::tet_mesh: once per output frame) rather than every step;
+            // the paper's Eq 22 integrates and must run every step.
+            if (w.embedded.motion != VertexMotion::deformation) update_mesh_vertices(w, w.clock.dt);
+          }};
 }
 
 }  // namespace perifx::systems

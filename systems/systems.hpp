@@ -60,6 +60,8 @@ void run_bond_pass(WorldState& world, const std::vector<Vec3>& y, std::vector<Ve
 // fragments.cpp: connected components of alive bonds; id = smallest particle index in the
 // component. Returns the number of components.
 std::size_t compute_fragments(const WorldState& world, std::vector<std::uint32_t>& fragment_id);
+// Stable piece ids in world.derived.fragment_id (fragments.cpp); returns the piece count.
+std::size_t update_piece_ids(WorldState& world);
 // Embedded mesh (§5.2; crack_faces.cpp, mesh_split.cpp, mesh_vertices.cpp, mesh_surface.cpp):
 // new crack faces from broken face-pair bonds (returns how many); vertex splitting of the fresh
 // crack faces (returns copies made); vertex motion (Eq 20–22, or the embedding); boundary triangles.
@@ -67,7 +69,8 @@ std::size_t collect_crack_faces(WorldState& world);
 std::size_t split_mesh_vertices(WorldState& world);
 void update_mesh_vertices(WorldState& world, double dt);
 bool face_pair_shared(const EmbeddedMesh& mesh, std::uint32_t pair);
-void extract_surface(const WorldState& world, const std::vector<std::uint32_t>* fragment_id, SurfaceMesh& out);
+void extract_surface(const WorldState& world, const std::vector<std::uint32_t>* fragment_id, SurfaceMesh& out,
+                     std::uint32_t min_piece_tets = 0);
 // fem_setup.cpp / fem_force.cpp: the FEM reference solver (components/fem.hpp), particles = vertices.
 void setup_fem(WorldState& world);
 void compute_fem_force(const WorldState& world, const std::vector<Vec3>& y, std::vector<Vec3>& corner_scratch,

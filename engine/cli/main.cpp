@@ -1,4 +1,4 @@
-// perifx command line (CLI11): run, check, info and spec for scene files, compare and render for run
+// perifx command line (CLI11): run, check, info and spec for scene files, compare, render and check-surface for run
 // directories; every command has --help, and perifx --version. Exit codes (also in the README):
 //   0 success   1 usage error   2 invalid scene or mesh   3 output could not be written
 //   4 time step above the stable limit   5 internal error
@@ -25,6 +25,7 @@
 #include "runner.hpp"
 #include "tools/compare.hpp"
 #include "tools/render/command.hpp"
+#include "tools/surface_check.hpp"
 
 namespace {
 
@@ -46,7 +47,7 @@ struct UsageError {
 struct Args {
   std::string command, scene;
   std::string second;  // compare: RUN_B
-  std::optional<std::string> out, frames, threads, solver, dt, progress;
+  std::optional<std::string> out, frames, threads, solver, dt, progress, horizon;
   bool quiet = false, overwrite = false, resume = false;
   bool render = false;  // run --render
 };
@@ -150,6 +151,22 @@ int cmd_compare(const Args& a) {
     return kOk;
   } catch (const perifx::CompareError& e) {
     std::cerr << "perifx: compare: " << e.what() << "\n";
+    return kScene;
+  }
+}
+
+// check-surface RUN_DIR: the per-frame surface table; exit 2 when a count is non-zero or the run
+// cannot be read (engine/tools/surface_check.hpp).
+int cmd_check_surface(const Args& a) {
+  perifx::SurfaceCheckOptions opt;
+  if (a.frames) opt.frames = static_cast<std::uint64_t>(parse_count("--frames", *a.frames, 1));
+  if (a.horizon) opt.horizon = parse_positive("--horizon", *a.horizon);
+  try {
+    const auto report = perifx::check_run_surfaces(a.scene, opt);
+    perifx::print_surface_check(std::cout, report);
+    return report.issues() ? kScene : kOk;
+  } catch (const perifx::SurfaceCheckError& e) {
+    std::cerr << "perifx: check-surface: " << e.what() << "\n";
     return kScene;
   }
 }
@@ -373,6 +390,7 @@ int run_command(const Args& a) {
   if (a.command == "run") return cmd_run(a);
   if (a.command == "compare") return cmd_compare(a);
   if (a.command == "check") return cmd_check(a);
+  if (a.command == "check-surface") return cmd_check_surface(a);
   if (a.command == "info") return cmd_info(a);
   std::cout << perifx::scene::scene_format_markdown();  // spec
   return kOk;
@@ -416,6 +434,14 @@ int main(int argc, char** argv) {
                  "mesh (interpolated)");
   compare->add_option("RUN_A", a.scene, "reference run directory")->required();
   compare->add_option("RUN_B", a.second, "compared run directory")->required();
+
+  CLI::App* check_surface = app.add_subcommand(
+      "check-surface", "per frame: surface vertices farther than a horizon from their piece, inverted closed shells, "
+                       "open edges, triangles stretched > 3x where the particles are not, longest edge; exit 2 when a "
+                       "count is non-zero");
+  check_surface->add_option("RUN_DIR", a.scene, "run directory")->required();
+  text_option(check_surface, "--frames", a.frames, "check frames 0..N-1 only");
+  text_option(check_surface, "--horizon", a.horizon, "horizon in metres (default: mesh.json)");
 
   RenderArgs r;
   CLI::App* render = app.add_subcommand(

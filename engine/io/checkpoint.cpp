@@ -43,6 +43,7 @@ void for_each_scalar(W& w, F&& f) {
   f(e.vertex_copies_total);
   f(e.original_vertex_count);
   f(w.derived.fragment_count);
+  f(w.derived.next_fragment_id);  // stable piece ids (systems/fragments.cpp)
 }
 
 [[noreturn]] void bad(const fs::path& file, const std::string& why) {

@@ -2,6 +2,7 @@
 // optional crack groups (read). Writers: write_atomic, locale-free number text (std::to_chars).
 #include "io/obj.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cstdint>
 #include <string_view>
@@ -58,17 +59,32 @@ void write_obj_surface(const fs::path& target, const SurfaceMesh& surface, const
     append_number(text, v.z());
     text += '\n';
   }
-  for (std::uint8_t group : {std::uint8_t{0}, std::uint8_t{1}}) {
-    text += group ? "g crack\nusemtl crack\n" : "g surface\nusemtl surface\n";
-    for (std::size_t f = 0; f < surface.triangles.size(); ++f) {
-      if (surface.crack[f] != group) continue;
-      text += 'f';
-      for (auto v : surface.triangles[f]) {
-        text += ' ';
-        append_number(text, std::uint64_t{v} + 1);
-      }
+  // One object/group per piece, in increasing id order; inside it the outside faces, then the crack
+  // faces, each under its material. Faces keep their relative order.
+  std::vector<std::size_t> order(surface.triangles.size());
+  for (std::size_t f = 0; f < order.size(); ++f) order[f] = f;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return surface.fragment[a] != surface.fragment[b] ? surface.fragment[a] < surface.fragment[b]
+                                                       : surface.crack[a] < surface.crack[b];
+  });
+  for (std::size_t q = 0; q < order.size(); ++q) {
+    const std::size_t f = order[q];
+    const bool new_piece = q == 0 || surface.fragment[order[q - 1]] != surface.fragment[f];
+    if (new_piece) {
+      text += "o piece_";
+      append_number(text, std::uint64_t{surface.fragment[f]});
+      text += "\ng piece_";
+      append_number(text, std::uint64_t{surface.fragment[f]});
       text += '\n';
     }
+    if (new_piece || surface.crack[order[q - 1]] != surface.crack[f])
+      text += surface.crack[f] ? "usemtl crack\n" : "usemtl surface\n";
+    text += 'f';
+    for (auto v : surface.triangles[f]) {
+      text += ' ';
+      append_number(text, std::uint64_t{v} + 1);
+    }
+    text += '\n';
   }
   write_atomic(target, [&](std::ostream& os) { os.write(text.data(), static_cast<std::streamsize>(text.size())); });
 }

@@ -8,9 +8,10 @@
 
 namespace perifx::io {
 
-// Surface as Wavefront OBJ: `mtllib <mtl>`, vertices, then `g surface`/`usemtl surface` with the
-// original-surface triangles and `g crack`/`usemtl crack` with the crack triangles (1-based, outward
-// counter-clockwise). Coordinates with 9 significant digits.
+// Surface as Wavefront OBJ: `mtllib <mtl>`, vertices, then per piece (increasing id, from the
+// triangles' `fragment`) `o piece_<id>` / `g piece_<id>` with its original-surface triangles under
+// `usemtl surface` and its crack triangles under `usemtl crack` (1-based, outward counter-clockwise).
+// Coordinates with 9 significant digits. No normals: vertices are shared (each piece is closed).
 void write_obj_surface(const std::filesystem::path& target, const SurfaceMesh& surface,
                        const std::string& mtl_file = "surface.mtl");
 // The two materials the OBJ files use (grey surface, orange crack).

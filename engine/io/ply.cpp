@@ -12,6 +12,7 @@
 #include <unordered_set>
 
 #include "io/atomic.hpp"
+#include "io/render_surface.hpp"
 #include "io/text.hpp"
 #include "io/write_checks.hpp"
 
@@ -202,29 +203,46 @@ void write_ply_points(const fs::path& target, const std::vector<Vec3>& points,
 
 void write_ply_surface(const fs::path& target, const SurfaceMesh& surface) {
   detail::check_surface(target, surface);
+  const RenderSurface r = render_surface(surface);
+  const bool has_tet = surface.tet.size() == surface.triangles.size();
   std::string header = "ply\nformat binary_little_endian 1.0\ncomment perifx embedded mesh surface\nelement vertex ";
-  append_number(header, std::uint64_t{surface.vertices.size()});
-  header += "\nproperty float x\nproperty float y\nproperty float z\nelement face ";
+  append_number(header, std::uint64_t{r.position.size()});
+  header += "\nproperty float x\nproperty float y\nproperty float z"
+            "\nproperty float nx\nproperty float ny\nproperty float nz"
+            "\nproperty float vx\nproperty float vy\nproperty float vz"
+            "\nproperty float rx\nproperty float ry\nproperty float rz"
+            "\nproperty uint source\nelement face ";
   append_number(header, std::uint64_t{surface.triangles.size()});
-  header += "\nproperty list uchar int vertex_indices\nproperty uchar crack\nproperty uint fragment\nend_header\n";
-  // Face record: 1 + 12 + 1 + 4 = 18 bytes, packed.
+  header += "\nproperty list uchar int vertex_indices\nproperty uchar crack\nproperty uint fragment\nproperty uint tet\nend_header\n";
+  // Vertex record: 12 floats + 1 uint = 52 bytes; face record: 1 + 12 + 1 + 4 + 4 = 22 bytes, packed.
   std::string body;
-  body.resize(12 * surface.vertices.size() + 18 * surface.triangles.size());
+  body.resize(52 * r.position.size() + 22 * surface.triangles.size());
   char* out = body.data();
-  for (const Vec3& v : surface.vertices) {
+  auto put3 = [&](const Vec3& v) {
     const float xyz[3] = {static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z())};
     std::memcpy(out, xyz, sizeof xyz);
     out += sizeof xyz;
+  };
+  for (std::size_t v = 0; v < r.position.size(); ++v) {
+    put3(r.position[v]);
+    put3(r.normal[v]);
+    put3(r.velocity[v]);
+    put3(r.reference[v]);
+    std::memcpy(out, &r.source[v], 4);
+    out += 4;
   }
   for (std::size_t f = 0; f < surface.triangles.size(); ++f) {
     *out++ = 3;
-    for (auto v : surface.triangles[f]) {
+    for (auto v : r.triangles[f]) {
       const auto i = static_cast<std::int32_t>(v);
       std::memcpy(out, &i, 4);
       out += 4;
     }
     *out++ = static_cast<char>(surface.crack[f]);
     std::memcpy(out, &surface.fragment[f], 4);
+    out += 4;
+    const std::uint32_t tet = has_tet ? surface.tet[f] : 0u;
+    std::memcpy(out, &tet, 4);
     out += 4;
   }
   write_atomic(target, [&](std::ostream& os) {
@@ -305,6 +323,8 @@ PlyContent read_ply(const fs::path& file) {
     const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
     int px = -1, py = -1, pz = -1, pf = -1, pc = -1;
     std::vector<std::vector<double>*> vertex_property(e.properties.size(), nullptr);
+    std::vector<std::vector<double>*> face_property(e.properties.size(), nullptr);
+    std::vector<double> face_values(e.properties.size(), 0.0);
     if (is_vertex) {
       px = find(e, {"x"}), py = find(e, {"y"}), pz = find(e, {"z"});
       if (px < 0 || py < 0 || pz < 0) throw ReadError(name + ": PLY 'vertex' element has no x, y and z properties");
@@ -324,6 +344,8 @@ PlyContent read_ply(const fs::path& file) {
       }
       pc = find(e, {"crack", "is_crack", "crack_face"});
       crack_flags = crack_flags || pc >= 0;
+      for (std::size_t pi = 0; pi < e.properties.size(); ++pi)
+        if (!e.properties[pi].list) face_property[pi] = &content.face_properties[e.properties[pi].name];
     }
     for (long long k = 0; k < e.count; ++k) {
       const std::string what = e.name + " " + std::to_string(k);
@@ -347,6 +369,7 @@ PlyContent read_ply(const fs::path& file) {
           if (ip == pz) s.vertices[static_cast<std::size_t>(k)].z() = x;
           if (vertex_property[pi]) (*vertex_property[pi])[static_cast<std::size_t>(k)] = x;
           if (ip == pc) crack = x != 0.0;
+          face_values[pi] = x;
           continue;
         }
         const double n = value(p.count, "list length");
@@ -373,7 +396,11 @@ PlyContent read_ply(const fs::path& file) {
         }
       }
       // After the whole record: a face's crack flag may follow its index list.
-      if (face_read) add_fan(s, polygon, crack);
+      if (face_read) {
+        add_fan(s, polygon, crack);
+        for (std::size_t pi = 0; pi < e.properties.size(); ++pi)
+          if (face_property[pi]) face_property[pi]->resize(s.triangles.size(), face_values[pi]);
+      }
       if (is_vertex && !s.vertices[static_cast<std::size_t>(k)].allFinite()) {
         throw ReadError(name + ": vertex " + std::to_string(k) + " has a non-finite coordinate");
       }

@@ -4,6 +4,7 @@
 #include "io/run_dir.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -38,7 +39,7 @@ std::vector<std::uint32_t> as_indices(const std::vector<double>& values) {
 }
 
 bool frame_field(const std::string& name) {
-  return name == "volume" || name == "damage" || name == "material_id" || name == "body_id";
+  return name == "volume" || name == "damage" || name == "material_id" || name == "body_id" || name == "fragment_id";
 }
 
 ParticleFrame read_vtu_particles(const fs::path& file) {
@@ -58,6 +59,7 @@ ParticleFrame read_vtu_particles(const fs::path& file) {
   if (const auto* d = scalar_field("damage")) f.damage = *d;
   if (const auto* m = scalar_field("material_id")) f.material = as_indices(*m);
   else if (const auto* b = scalar_field("body_id")) f.material = as_indices(*b);
+  if (const auto* g = scalar_field("fragment_id")) f.fragment = as_indices(*g);
   return f;
 }
 
@@ -73,6 +75,7 @@ ParticleFrame read_ply_particles(const fs::path& file) {
   if (const auto* d = field("damage")) f.damage = *d;
   if (const auto* m = field("material_id")) f.material = as_indices(*m);
   else if (const auto* b = field("body_id")) f.material = as_indices(*b);
+  if (const auto* g = field("fragment_id")) f.fragment = as_indices(*g);
   return f;
 }
 
@@ -94,7 +97,15 @@ SurfaceFrame read_surface_frame(const fs::path& file) {
     s.vertex = std::move(ply.surface.vertices);
     s.triangle = std::move(ply.surface.triangles);
     s.crack = std::move(ply.surface.crack);
-    if (const auto d = ply.vertex_properties.find("damage"); d != ply.vertex_properties.end()) s.damage = d->second;
+    const auto& vp = ply.vertex_properties;
+    if (const auto d = vp.find("damage"); d != vp.end()) s.damage = d->second;
+    if (vp.count("rx") && vp.count("ry") && vp.count("rz")) {
+      s.reference.resize(s.vertex.size());
+      for (std::size_t v = 0; v < s.vertex.size(); ++v) s.reference[v] = Vec3(vp.at("rx")[v], vp.at("ry")[v], vp.at("rz")[v]);
+    }
+    if (const auto it = vp.find("source"); it != vp.end()) s.source = as_indices(it->second);
+    if (const auto it = ply.face_properties.find("fragment"); it != ply.face_properties.end()) s.fragment = as_indices(it->second);
+    if (const auto it = ply.face_properties.find("tet"); it != ply.face_properties.end()) s.tet = as_indices(it->second);
   }
   for (const auto& t : s.triangle)
     for (const auto i : t)
@@ -213,6 +224,11 @@ void write_run_mesh(const fs::path& dir, const RunMesh& m) {
   text += ",\n  \"vertices\": " + std::to_string(m.vertices);
   text += ",\n  \"tet_count\": " + std::to_string(m.tet_count);
   text += ",\n  \"tet_hash\": \"" + m.hash + "\"";
+  if (m.horizon > 0.0) {  // runs that write surfaces: what `perifx check-surface` measures against
+    char buf[32];
+    const auto r = std::to_chars(buf, buf + sizeof buf, m.horizon);
+    text += ",\n  \"horizon\": " + std::string(buf, r.ptr);
+  }
   if (m.vertices_are_particles) {  // the connectivity that maps vertices back to the PD particles
     text += ",\n  \"tets\": [";
     for (std::size_t t = 0; t < m.tets.size(); ++t) {
@@ -239,6 +255,7 @@ RunMesh read_run_mesh(const fs::path& dir) {
     m.vertices = j.value("vertices", std::size_t{0});
     m.tet_count = j.at("tet_count").get<std::size_t>();
     m.hash = j.at("tet_hash").get<std::string>();
+    m.horizon = j.value("horizon", 0.0);
     if (j.contains("tets")) m.tets = j["tets"].get<std::vector<std::array<std::uint32_t, 4>>>();
   } catch (const nlohmann::json::exception& e) {
     throw RunDirError(file.string() + ": " + e.what());

@@ -27,6 +27,7 @@ struct ParticleFrame {
   std::vector<double> volume;           // empty when the run did not write it
   std::vector<double> damage;           // empty when absent
   std::vector<std::uint32_t> material;  // material_id, else body_id; empty when neither was written
+  std::vector<std::uint32_t> fragment;  // fragment_id (piece id); empty when absent
 };
 
 struct SurfaceFrame {
@@ -34,6 +35,11 @@ struct SurfaceFrame {
   std::vector<std::array<std::uint32_t, 3>> triangle;
   std::vector<std::uint8_t> crack;  // per triangle: 1 on crack faces (empty: no flags in the file)
   std::vector<double> damage;       // per vertex, when the file has it
+  // Surface PLY files of perifx runs (io/ply.hpp) also carry, each empty when absent:
+  std::vector<Vec3> reference;              // per vertex: reference position (rx ry rz)
+  std::vector<std::uint32_t> source;        // per vertex: embedded-mesh vertex (welds rim copies)
+  std::vector<std::uint32_t> fragment;      // per triangle: piece id
+  std::vector<std::uint32_t> tet;           // per triangle: its tet (= particle)
 };
 
 struct ProjectileState {
@@ -85,6 +91,7 @@ struct RunMesh {
   std::size_t particles = 0, vertices = 0, tet_count = 0;
   std::string hash;
   std::vector<std::array<std::uint32_t, 4>> tets;  // written and read only when vertices_are_particles
+  double horizon = 0.0;  // largest horizon δ of the bodies, m; written when the run writes surfaces (else 0)
 };
 // FNV-1a 64 of the vertex count, tet count and connectivity, as 16 hex digits.
 std::string tet_hash(const std::vector<std::array<std::uint32_t, 4>>& tets, std::size_t vertices);

@@ -13,6 +13,7 @@
 #include <optional>
 
 #include "io/atomic.hpp"
+#include "io/render_surface.hpp"
 #include "io/write_checks.hpp"
 
 namespace perifx::io {
@@ -155,22 +156,32 @@ void write_vtu_points(const fs::path& target, const std::vector<Vec3>& points, c
 
 void write_vtp_surface(const fs::path& target, const SurfaceMesh& surface) {
   detail::check_surface(target, surface);
-  const std::size_t nv = surface.vertices.size(), nf = surface.triangles.size();
+  const RenderSurface r = render_surface(surface);
+  const std::size_t nv = r.position.size(), nf = surface.triangles.size();
   std::vector<std::int64_t> connectivity, offsets(nf);
   connectivity.reserve(3 * nf);
   for (std::size_t f = 0; f < nf; ++f) {
-    for (auto v : surface.triangles[f]) connectivity.push_back(v);
+    for (auto v : r.triangles[f]) connectivity.push_back(v);
     offsets[f] = static_cast<std::int64_t>(3 * (f + 1));
   }
+  std::vector<std::uint32_t> tet = surface.tet;
+  tet.resize(nf, 0u);
   VtkAppendedWriter w("PolyData", "NumberOfPoints=\"" + std::to_string(nv) +
                                       "\" NumberOfVerts=\"0\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"" +
                                       std::to_string(nf) + "\"");
+  w.begin_section("PointData");
+  add_vector(w, "Float64", "normal", 3, r.normal);
+  add_vector(w, "Float64", "velocity", 3, r.velocity);
+  add_vector(w, "Float64", "reference", 3, r.reference);
+  add_vector(w, "UInt32", "source", 0, r.source);
+  w.end_section();
   w.begin_section("CellData");
   add_vector(w, "UInt8", "crack", 0, surface.crack);
   add_vector(w, "UInt32", "fragment", 0, surface.fragment);
+  add_vector(w, "UInt32", "tet", 0, tet);
   w.end_section();
   w.begin_section("Points");
-  add_vector(w, "Float64", "Points", 3, surface.vertices);
+  add_vector(w, "Float64", "Points", 3, r.position);
   w.end_section();
   w.begin_section("Polys");
   add_vector(w, "Int64", "connectivity", 0, connectivity);

@@ -50,7 +50,9 @@ class VtkAppendedWriter {
 // little endian, readable by ParaView. Fields must have location particle and count == points.size().
 void write_vtu_points(const std::filesystem::path& target, const std::vector<Vec3>& points,
                       const std::vector<FieldView>& fields);
-// Surface as VTK XML PolyData (.vtp) with cell data crack (UInt8) and fragment (UInt32): what the
+// Surface as VTK XML PolyData (.vtp), vertices split along crack rims (io/render_surface.hpp), with
+// point data normal, velocity, reference (Float64 ×3) and source (UInt32), cell data crack (UInt8),
+// fragment (UInt32, stable piece id) and tet (UInt32): what the
 // surface.pvd series lists (ParaView's .pvd reader takes VTK XML files only).
 void write_vtp_surface(const std::filesystem::path& target, const SurfaceMesh& surface);
 // Tet mesh as VTK XML UnstructuredGrid (VTK_TETRA cells) with per-cell damage (Float64) and

@@ -258,6 +258,9 @@ Key build_spec() {
           strings("fields", {}, "Particle fields to write; empty = all. Names: see Particle fields below.").def(Json::array()),
           integer("checkpoint_every", "Write checkpoint.bin (the complete world state, for `perifx run --resume`) "
                   "every this many frames, and after the last frame; 0 = never.").ge(0).def(10),
+          integer("min_piece_tets", "Pieces (components of alive bonds, `fragment_id`) with fewer tets than this "
+                  "are left out of the surface files (obj, surface_ply, surface_vtp): dust. 0 keeps every piece; "
+                  "the particle files keep every particle.").ge(0).def(0),
       }).def(Json::object()),
   });
 }

@@ -171,11 +171,13 @@ TEST_CASE("embedded mesh: a cube cut along a grid plane gives two closed waterti
       std::ifstream in(dir / "surface.0001.obj");
       std::string line, group;
       std::size_t v = 0, f_surface = 0, f_crack = 0;
+      std::set<std::string> pieces;
       bool mtllib = false;
       while (std::getline(in, line)) {
         if (line.rfind("mtllib surface.mtl", 0) == 0) mtllib = true;
         if (line.rfind("v ", 0) == 0) ++v;
-        if (line.rfind("g ", 0) == 0) group = line.substr(2);
+        if (line.rfind("o piece_", 0) == 0) pieces.insert(line.substr(2));
+        if (line.rfind("usemtl ", 0) == 0) group = line.substr(7);
         if (line.rfind("f ", 0) == 0) {
           std::istringstream ls(line.substr(2));
           long a, b, d;
@@ -185,41 +187,48 @@ TEST_CASE("embedded mesh: a cube cut along a grid plane gives two closed waterti
         }
       }
       CHECK(mtllib);
+      CHECK(pieces.size() == 2);  // one object per piece: piece_<id>
+      CHECK(pieces.count("piece_" + std::to_string(s.fragment[0])) == 1);
       CHECK(v == s.vertices.size());
       CHECK(f_crack == c.crack);
       CHECK(f_surface == s.triangles.size() - c.crack);
       CHECK(fs::exists(dir / "surface.mtl"));
     }
-    // PLY: header, then binary vertices and faces.
+    // PLY: the vertices split along the crack rims (outside and crack copies), normals, welded back
+    // by `source`; faces with crack, piece id and tet.
     {
-      std::ifstream in(dir / "surface.0001.ply", std::ios::binary);
-      std::string line;
-      std::size_t nv = 0, nf = 0;
-      while (std::getline(in, line) && line != "end_header") {
-        std::sscanf(line.c_str(), "element vertex %zu", &nv);
-        std::sscanf(line.c_str(), "element face %zu", &nf);
+      const io::PlyContent ply = io::read_ply(dir / "surface.0001.ply");
+      const auto& vp = ply.vertex_properties;
+      for (const char* name : {"nx", "ny", "nz", "vx", "vy", "vz", "rx", "ry", "rz", "source"}) REQUIRE(vp.count(name) == 1);
+      for (const char* name : {"fragment", "tet"}) REQUIRE(ply.face_properties.count(name) == 1);
+      REQUIRE(ply.surface.triangles.size() == s.triangles.size());
+      std::size_t crack = 0, mismatch = 0, bad_normal = 0;
+      for (std::size_t f = 0; f < s.triangles.size(); ++f) {
+        crack += ply.surface.crack[f];
+        mismatch += ply.face_properties.at("fragment")[f] != s.fragment[f] || ply.face_properties.at("tet")[f] != s.tet[f];
+        const Vec3 n = (s.vertices[s.triangles[f][1]] - s.vertices[s.triangles[f][0]])
+                           .cross(s.vertices[s.triangles[f][2]] - s.vertices[s.triangles[f][0]]).normalized();
+        for (int k = 0; k < 3; ++k) {
+          const auto pv = ply.surface.triangles[f][static_cast<std::size_t>(k)];
+          mismatch += vp.at("source")[pv] != s.source[s.triangles[f][static_cast<std::size_t>(k)]];
+          // On a flat face of the box or of the crack plane the smooth normal is the face's own
+          // (edges and corners of the box average their faces: only check it points outward).
+          const Vec3 vn(vp.at("nx")[pv], vp.at("ny")[pv], vp.at("nz")[pv]);
+          bad_normal += vn.dot(n) <= 0.0 || (s.crack[f] && std::abs(vn.dot(n) - 1.0) > 1e-6);
+        }
       }
-      REQUIRE(nv == s.vertices.size());
-      REQUIRE(nf == s.triangles.size());
-      std::vector<float> xyz(3 * nv);
-      in.read(reinterpret_cast<char*>(xyz.data()), static_cast<std::streamsize>(xyz.size() * 4));
-      CHECK(xyz[0] == static_cast<float>(s.vertices[0].x()));
-      std::size_t crack = 0, mismatch = 0;
-      for (std::size_t f = 0; f < nf; ++f) {
-        unsigned char count = 0, is_crack = 0;
-        std::int32_t idx[3];
-        std::uint32_t frag = 0;
-        in.read(reinterpret_cast<char*>(&count), 1);
-        in.read(reinterpret_cast<char*>(idx), 12);
-        in.read(reinterpret_cast<char*>(&is_crack), 1);
-        in.read(reinterpret_cast<char*>(&frag), 4);
-        mismatch += count != 3 || std::uint32_t(idx[0]) != s.triangles[f][0] || frag != s.fragment[f];
-        crack += is_crack;
-      }
-      CHECK(in.good());
-      CHECK(in.peek() == std::char_traits<char>::eof());
       CHECK(mismatch == 0);
+      CHECK(bad_normal == 0);
       CHECK(crack == c.crack);
+      // The rim vertices (crack meets outside) are written twice.
+      std::set<std::uint32_t> rim;
+      std::map<std::uint32_t, int> kinds;
+      for (std::size_t f = 0; f < s.triangles.size(); ++f)
+        for (auto v : s.triangles[f]) kinds[v] |= s.crack[f] ? 2 : 1;
+      std::size_t both = 0;
+      for (const auto& [v, k] : kinds) both += k == 3;
+      CHECK(both > 0);
+      CHECK(ply.surface.vertices.size() == s.vertices.size() + both);
     }
     // ParaView reads the tets (cell count) and the surface, when installed.
     if (std::system("command -v pvpython > /dev/null 2>&1") == 0) {
@@ -485,4 +494,107 @@ TEST_CASE("embedded mesh: fracture through the step graph splits the mesh; 1 and
   CHECK(a.vertices == b.vertices);
   CHECK(a.pending == b.pending);
   CHECK(one.schedule().find("mesh_split") != std::string::npos);
+}
+
+// ---- VertexMotion::deformation (the default): per-particle F from the alive bonds ----
+
+TEST_CASE("embedded mesh: deformation-gradient vertex motion is rigid to 1e-12 and affine-exact") {
+  const Vec3 V(1.0, -2.0, 0.5), omega(0.3, 0.5, 2.0);
+  const double translate = rigid_vertex_error(VertexMotion::deformation, Vec3::Zero(), V, 300, 1e-3);
+  const double rotate = rigid_vertex_error(VertexMotion::deformation, omega, V, 300, 1e-3);
+  MESSAGE("deformation motion, relative vertex error after 300 steps (0.62 rad): translate " << translate << ", rotate " << rotate);
+  CHECK(translate < 1e-12);
+  CHECK(rotate < 1e-12);
+  CHECK(World(test::box_scene(Vec3(0.2, 0.1, 0.1), 0.025, kKappa, kMu)).state().embedded.motion == VertexMotion::deformation);
+
+  // An affine map y = c + A (x − c) + b: every vertex lands on A (X − c) + c + b.
+  auto sc = test::box_scene(Vec3(0.2, 0.1, 0.1), 0.025, kKappa, kMu);
+  World world(sc);
+  WorldState& w = world.state_mutable();
+  Mat3 A;
+  A << 1.3, 0.2, 0.0, 0.1, 0.8, 0.15, 0.0, -0.2, 1.1;
+  const Vec3 c(0.01, -0.02, 0.03), b(0.5, 0.1, -0.2);
+  for (std::size_t i = 0; i < w.particles.count(); ++i)
+    w.particles.position[i] = c + A * (w.particles.reference_position[i] - c) + b;
+  systems::update_mesh_vertices(w, 0.0);
+  double err = 0.0;
+  for (std::size_t v = 0; v < w.embedded.vertices.size(); ++v)
+    err = std::max(err, (w.embedded.vertices[v] - (c + A * (w.embedded.reference_vertices[v] - c) + b)).norm());
+  MESSAGE("affine map: worst vertex error / body size " << err / 0.2);
+  CHECK(err / 0.2 < 1e-12);
+}
+
+TEST_CASE("embedded mesh: a vertex never leaves its group, single-tet pieces keep their last rotation") {
+  auto sc = test::box_scene(Vec3(0.2, 0.1, 0.1), 0.025, kKappa, kMu);
+  World world(sc);
+  WorldState& w = world.state_mutable();
+  const auto& x = w.particles.reference_position;
+  const std::size_t n = x.size();
+  // Rigid rotation by 0.4 rad, then every bond breaks: all pieces are single tets.
+  const Mat3 R = Eigen::AngleAxisd(0.4, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  for (std::size_t i = 0; i < n; ++i) w.particles.position[i] = R * x[i];
+  run_mesh_systems(w);
+  break_bonds(w, [](std::uint32_t, std::uint32_t) { return true; });
+  run_mesh_systems(w);
+  // The particles now scatter: shuffled by random displacements of up to one cell, and the cloud turns
+  // further. The tets must stay rigid copies of themselves with the rotation they had (R).
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.025, 0.025);
+  const Mat3 R2 = Eigen::AngleAxisd(1.1, Vec3(0, 1, 0)).toRotationMatrix();
+  for (std::size_t i = 0; i < n; ++i) w.particles.position[i] = R2 * w.particles.position[i] + Vec3(u(rng), u(rng), u(rng));
+  run_mesh_systems(w);
+  const auto& e = w.embedded;
+  double err = 0.0;
+  std::size_t inverted = 0;
+  for (std::size_t t = 0; t < e.tets.size(); ++t) {
+    const auto& tet = e.tets[t];
+    for (auto v : tet) err = std::max(err, (e.vertices[v] - (w.particles.position[t] + R * (e.reference_vertices[v] - x[t]))).norm());
+    const Vec3 a = e.vertices[tet[0]], b = e.vertices[tet[1]], c = e.vertices[tet[2]], d = e.vertices[tet[3]];
+    inverted += (b - a).cross(c - a).dot(d - a) <= 0.0;
+  }
+  MESSAGE("single-tet pieces: worst vertex error " << err / 0.2 << " of the body size, inverted " << inverted);
+  CHECK(err / 0.2 < 1e-12);
+  CHECK(inverted == 0);
+}
+
+TEST_CASE("embedded mesh: under random breaking and large random motion no vertex extrapolates beyond its group") {
+  auto sc = test::box_scene(Vec3(0.2, 0.1, 0.1), 0.02, kKappa, kMu);
+  World world(sc);
+  WorldState& w = world.state_mutable();
+  const auto& x = w.particles.reference_position;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::size_t worst_group = 0;
+  double worst = 0.0;
+  for (int round = 0; round < 4; ++round) {
+    break_bonds(w, [&](std::uint32_t i, std::uint32_t j) { return ((i * 7919u + j * 104729u + static_cast<std::uint32_t>(round) * 31u) % 97u) < 12u; });
+    // Large, non-affine motion: a twist plus random jitter of a cell.
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const double a = 6.0 * x[i].x();
+      const Mat3 T = Eigen::AngleAxisd(a, Vec3::UnitX()).toRotationMatrix();
+      w.particles.position[i] = T * x[i] + 0.02 * Vec3(u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5);
+    }
+    run_mesh_systems(w);
+    const auto& e = w.embedded;
+    for (std::uint32_t v = 0; v < e.vertices.size(); ++v) {
+      Vec3 mean = Vec3::Zero();
+      double m = 0.0, reach = 0.0;
+      std::size_t group = 0;
+      const std::uint32_t o = e.origin[v];
+      for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
+        const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
+        if (e.tets[t][s] != v) continue;
+        mean += w.particles.mass[t] * w.particles.position[t];
+        m += w.particles.mass[t];
+        reach = std::max(reach, (e.reference_vertices[v] - x[t]).norm());
+        ++group;
+      }
+      if (group == 0) continue;
+      // |x_v − Σ w_t y_t| ≤ max ‖F_t‖₂ |X_v − x_t| ≤ √12 · reach (F's limit, mesh_vertices.cpp).
+      const double ratio = (e.vertices[v] - mean / m).norm() / reach;
+      if (ratio > worst) worst = ratio, worst_group = group;
+    }
+  }
+  MESSAGE("worst |x_v - group mean| / max|X_v - x_t| = " << worst << " (group of " << worst_group << " tets; bound sqrt(12))");
+  CHECK(worst <= std::sqrt(12.0) + 1e-9);
 }

@@ -1,0 +1,128 @@
+// perifx check-surface (engine/tools/surface_check.cpp): a short fracture run's surfaces pass with
+// every count 0; a corrupted surface is caught; output.min_piece_tets drops small pieces.
+#include <doctest/doctest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "io/obj.hpp"
+#include "io/ply.hpp"
+#include "io/run_dir.hpp"
+#include "runner.hpp"
+#include "support.hpp"
+#include "tools/surface_check.hpp"
+
+using namespace perifx;
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("perifx_test_surface_check_" + std::to_string(::getpid())) / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+// A brittle slab torn apart by its two halves' velocities: pieces fly off within a few frames.
+scene::Scene torn_slab() {
+  auto sc = test::box_scene(Vec3(0.06, 0.03, 0.012), 0.004, 5e5, 3e5);
+  sc.materials[0].critical_stretch = 0.01;
+  sc.time.dt = 2e-5;
+  sc.time.frame_rate = 500;
+  sc.output.vtu = true;
+  sc.output.ply = false;
+  sc.output.surface_ply = true;
+  sc.output.obj = true;
+  for (int side : {-1, 1}) {
+    scene::BoundaryCondition bc;
+    bc.kind = scene::BoundaryCondition::Kind::velocity;
+    bc.region.kind = scene::Region::Kind::box;
+    bc.region.min = Vec3(-1, side < 0 ? -1.0 : 0.01, -1);
+    bc.region.max = Vec3(1, side < 0 ? -0.01 : 1.0, 1);
+    bc.velocity = Vec3(0, side * 2.0, 0);
+    sc.boundary_conditions.push_back(bc);
+  }
+  return sc;
+}
+
+}  // namespace
+
+TEST_CASE("check-surface: a short fracture run has no far, inverted, open or stretched surface elements") {
+  const fs::path dir = temp_dir("torn");
+  {
+    World world(torn_slab());
+    RunOptions opt;
+    opt.output_directory = dir;
+    opt.frames = 6;
+    run_world(world, opt);
+    CHECK(world.fragment_count() > 1);
+  }
+  const auto report = check_run_surfaces(dir);
+  std::ostringstream table;
+  print_surface_check(table, report);
+  MESSAGE(table.str());
+  REQUIRE(report.frames.size() == 7);
+  CHECK(report.horizon > 0.0);
+  CHECK(report.frames.back().pieces > 1);
+  for (const auto& f : report.frames) {
+    CHECK(f.far_vertices == 0);
+    CHECK(f.inverted_shells == 0);
+    CHECK(f.open_edges == 0);
+    CHECK(f.nonmanifold_edges == 0);
+    CHECK(f.stretched_triangles == 0);
+  }
+  CHECK(report.issues() == 0);
+
+  // The checker does see problems: push one vertex of the last surface far away (and unweld nothing).
+  SUBCASE("a displaced vertex is reported") {
+    const io::FrameFiles last = io::scan_run_directory(dir).frames.back();
+    io::SurfaceFrame s = io::read_surface_frame(last.surface);
+    CHECK(s.source.size() == s.vertex.size());
+    CHECK(s.reference.size() == s.vertex.size());
+    CHECK(s.tet.size() == s.triangle.size());
+    // Rewrite it as a plain OBJ with one vertex moved by 1 m (no reference data: stretch n/a).
+    SurfaceMesh m;
+    m.vertices = s.vertex;
+    m.triangles = s.triangle;
+    m.crack = s.crack;
+    m.fragment = s.fragment;
+    m.vertices[m.triangles[0][0]] += Vec3(1.0, 0, 0);
+    fs::remove(last.surface);
+    io::write_obj_surface(last.surface.parent_path() / last.surface.filename().replace_extension(".obj"), m);
+    const auto bad = check_run_surfaces(dir);
+    CHECK(bad.frames.back().far_vertices >= 1);
+    CHECK(bad.issues() > 0);
+  }
+}
+
+TEST_CASE("output.min_piece_tets leaves small pieces out of the surface files") {
+  auto sc = torn_slab();
+  World all(sc);
+  all.step(150);
+  const FieldView f = all.field("fragment_id");
+  const auto* id = static_cast<const std::uint32_t*>(f.data);
+  std::map<std::uint32_t, std::uint32_t> tets;
+  for (std::size_t i = 0; i < f.count; ++i) ++tets[id[i]];
+  std::uint32_t largest = 0;
+  for (const auto& [piece, n] : tets) largest = std::max(largest, n);
+  // Keep only the pieces as large as the largest.
+  sc.output.min_piece_tets = largest;
+  World big(sc);
+  big.step(150);
+  const SurfaceMesh a = all.surface(), b = big.surface();
+  std::size_t small = 0;
+  for (const auto& [piece, n] : tets) small += n < largest;
+  MESSAGE(tets.size() << " pieces, " << small << " below " << largest << " tets; triangles " << a.triangles.size()
+                      << " -> " << b.triangles.size());
+  REQUIRE(small > 0);
+  CHECK(b.triangles.size() < a.triangles.size());
+  std::set<std::uint32_t> kept(b.fragment.begin(), b.fragment.end());
+  for (auto piece : kept) CHECK(tets[piece] >= largest);
+  CHECK(kept.size() == tets.size() - small);
+  CHECK(b.vertices.size() < a.vertices.size());
+}
