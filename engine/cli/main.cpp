@@ -1,7 +1,8 @@
 // perifx command line (CLI11): run, check, info and spec for scene files, compare and render for run
 // directories; every command has --help, and perifx --version. Exit codes (also in the README):
 //   0 success   1 usage error   2 invalid scene or mesh   3 output could not be written
-//   4 time step above the stable limit   5 internal error
+//   4 time step above the stable limit   5 internal error   6 simulation became unstable
+//   7 not enough memory (estimate above the available memory; run --force overrides)
 #include <unistd.h>
 
 #include <chrono>
@@ -9,6 +10,7 @@
 #include <cstdio>
 #include <iostream>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -18,12 +20,13 @@
 #include "io/atomic.hpp"
 #include "perifx/world.hpp"
 #include "runner.hpp"
+#include "setup/preflight.hpp"
 #include "tools/compare.hpp"
 #include "tools/render/command.hpp"
 
 namespace {
 
-enum Exit { kOk = 0, kUsage = 1, kScene = 2, kOutput = 3, kUnstable = 4, kInternal = 5 };
+enum Exit { kOk = 0, kUsage = 1, kScene = 2, kOutput = 3, kUnstable = 4, kInternal = 5, kBlowUp = 6, kMemory = 7 };
 
 // Usage errors are one line on stderr and exit code 1; `perifx <command> --help` has the details.
 struct UsageError {
@@ -36,7 +39,7 @@ struct Args {
   std::string command, scene;
   std::string second;  // compare: RUN_B
   std::optional<std::string> out, frames, threads, solver, dt;
-  bool quiet = false;
+  bool quiet = false, force = false;
 };
 
 long long parse_count(const std::string& flag, const std::string& value, long long min) {
@@ -108,7 +111,19 @@ perifx::scene::Scene load(const Args& a) {
     sc.solver = *a.solver == "fem_linear" ? Solver::fem_linear
                 : *a.solver == "fem_corotated" ? Solver::fem_corotated : Solver::peridynamics;
   }
-  if (dt) sc.time.dt = *dt;
+  if (dt) {
+    sc.time.dt = *dt;
+    try {
+      perifx::scene::check_time(sc);
+    } catch (const perifx::scene::SceneError& e) {
+      throw UsageError{"--dt " + *a.dt + ": " + e.message()};
+    }
+  }
+  if (sc.solver != perifx::scene::Solver::peridynamics &&
+      (sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || sc.output.tets_vtu))
+    throw perifx::scene::SceneError(a.scene, "/output/formats",
+                                    "obj, surface_ply, surface_vtp and tets_vtu need the embedded tet mesh (got an FEM "
+                                    "solver; expected solver 'peridynamics' or formats vtu, ply)");
   return sc;
 }
 
@@ -142,8 +157,22 @@ int cmd_compare(const Args& a) {
   }
 }
 
+bool report_time_step(const perifx::World& world, std::ostream& out);
+
+// Everything run refuses before the first step: the scene, every mesh's contents, the memory
+// estimate, the world's setup and the stable-step limit.
 int cmd_check(const Args& a) {
   const auto sc = load(a);
+  const auto estimate = perifx::setup::preflight(sc, true);
+  {
+    perifx::World world(sc);
+    std::ostringstream verdict;
+    if (!report_time_step(world, verdict)) return kUnstable;
+  }
+  std::cout << a.scene << ": memory estimate " << perifx::setup::format_bytes(estimate.bytes) << " for "
+            << estimate.particles << " particles (available "
+            << (estimate.available > 0 ? perifx::setup::format_bytes(estimate.available) : std::string("unknown"))
+            << ")\n";
   std::cout << a.scene << ": ok (" << sc.materials.size() << " materials, " << sc.bodies.size() << " bodies, "
             << sc.boundary_conditions.size() << " boundary conditions, " << sc.colliders.size() << " colliders)\n";
   return kOk;
@@ -157,11 +186,11 @@ bool report_time_step(const perifx::World& world, std::ostream& out) {
   std::snprintf(buf, sizeof buf, "time step        %.3g s (stable limit %.3g s, %.0f%% of it)\n", dt, stable,
                 100.0 * dt / stable);
   out << buf;
-  if (dt > stable) {
+  if (!(dt <= stable)) {  // NaN (a degenerate world) refuses too
     std::snprintf(buf, sizeof buf,
-                  "error: time/dt = %.3g s exceeds the stable explicit step %.3g s; the run would blow up. "
-                  "Use time/dt <= %.3g.\n", dt, stable, 0.9 * stable);
-    std::cerr << buf;
+                  "time step above the stable explicit limit; the run would blow up (got %.3g s; expected at most "
+                  "the stable step %.3g s, e.g. %.3g)", dt, stable, 0.9 * stable);
+    std::cerr << "perifx: error: " << world.scene().source.string() << ": /time/dt: " << buf << "\n";
     return false;
   }
   if (dt > 0.8 * stable) out << "warning: time/dt is within 20% of the stable limit; large deformation may still blow up\n";
@@ -197,12 +226,15 @@ int cmd_run(const Args& a) {
   const std::optional<std::uint64_t> frames =
       a.frames ? std::optional<std::uint64_t>(static_cast<std::uint64_t>(parse_count("--frames", *a.frames, 1)))
                : std::nullopt;
-  perifx::World world(load(a));
+  const auto sc = load(a);
+  perifx::setup::preflight(sc, !a.force);  // meshes checked, memory estimated (refused unless --force)
+  perifx::World world(sc);
   const bool tty = ::isatty(STDERR_FILENO) && !a.quiet;
   if (!a.quiet)
     std::cerr << "perifx: " << world.scene().name << ": " << world.particle_count() << " particles, "
               << world.bond_count() << " bonds, " << world.threads() << " threads\n";
-  if (!report_time_step(world, a.quiet ? std::clog : std::cerr)) return kUnstable;
+  std::ostringstream quiet_sink;  // --quiet: stderr carries errors only
+  if (!report_time_step(world, a.quiet ? static_cast<std::ostream&>(quiet_sink) : std::cerr)) return kUnstable;
   perifx::RunOptions opt;
   if (a.out) opt.output_directory = *a.out;
   opt.frames = frames;
@@ -323,7 +355,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("perifx ") + PERIFX_VERSION);
   app.require_subcommand(1);
   app.footer(
-      "exit codes: 0 ok, 1 usage, 2 invalid scene or mesh, 3 output error, 4 unstable time step, 5 internal\n"
+      "exit codes: 0 ok, 1 usage, 2 invalid scene or mesh, 3 output error, 4 unstable time step, 5 internal,\n"
+      "6 simulation blew up, 7 not enough memory\n"
       "Run perifx COMMAND --help for a command's options.");
   Args a;
   // Scene overrides shared by run, check and info.
@@ -338,6 +371,7 @@ int main(int argc, char** argv) {
   text_option(run, "--out", a.out, "output directory (overrides the scene)");
   text_option(run, "--frames", a.frames, "run this many frames (N >= 1) instead of the scene's duration");
   run->add_flag("--quiet", a.quiet, "no progress or summary");
+  run->add_flag("--force", a.force, "run even when the memory estimate exceeds the available memory");
   scene_options(app.add_subcommand("check", "validate the scene without running it"));
   scene_options(app.add_subcommand("info", "particles, bonds, memory, the stable time step and the task graph"));
   app.add_subcommand("spec", "print the scene format reference (markdown)");
@@ -399,6 +433,12 @@ int main(int argc, char** argv) {
   } catch (const perifx::geometry::GeometryError& e) {
     std::cerr << "perifx: error: " << e.what() << "\n";
     return kScene;
+  } catch (const perifx::setup::MemoryError& e) {
+    std::cerr << "perifx: error: " << e.what() << "\n";
+    return kMemory;
+  } catch (const perifx::InstabilityError& e) {
+    std::cerr << "perifx: error: " << e.what() << "\n";
+    return kBlowUp;
   } catch (const perifx::io::IoError& e) {
     std::cerr << "perifx: error: " << e.what() << "\n";
     return kOutput;

@@ -7,6 +7,7 @@
 #include <cctype>
 #include <climits>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <sstream>
 
@@ -498,11 +499,11 @@ class Validator {
       if (!k) {
         std::string guess = closest(name, usable);
         if (guess.empty()) guess = closest(name, all);
-        if (!guess.empty()) fail(p, "unknown key '" + name + "'; did you mean '" + guess + "'?");
-        fail(p, "unknown key '" + name + "' (expected one of: " + join(usable) + ")");
+        if (!guess.empty()) fail(p, "unknown key '" + cut(name) + "'; did you mean '" + guess + "'?");
+        fail(p, "unknown key '" + cut(name) + "' (expected one of: " + join(usable) + ")");
       }
       if (!applies(*k))
-        fail(p, "key '" + name + "' is not used by " + spec.label + " type '" + type + "' (used by: " +
+        fail(p, "key '" + cut(name) + "' is not used by " + spec.label + " type '" + type + "' (used by: " +
                     join(k->only_for) + ")");
     }
 
@@ -607,15 +608,50 @@ std::string join(const std::vector<std::string>& items, const std::string& separ
   return out;
 }
 
+// Echoed input is cut to kEcho bytes (at a UTF-8 character boundary) with "…", so a huge value or
+// key never floods a message; control characters are escaped so a message stays one line.
+constexpr std::size_t kEcho = 80;
+
+std::string cut(const std::string& text) {
+  std::string out;
+  std::size_t used = 0;
+  for (; used < text.size() && out.size() < kEcho; ++used) {
+    const auto c = static_cast<unsigned char>(text[used]);
+    if (c < 0x20 || c == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  if (used == text.size()) return out;
+  // Drop a multi-byte character the cut went through.
+  std::size_t end = out.size();
+  if ((static_cast<unsigned char>(text[used]) & 0xC0) == 0x80) {
+    while (end > 0 && (static_cast<unsigned char>(out[end - 1]) & 0xC0) == 0x80) --end;
+    if (end > 0) --end;
+  }
+  return out.substr(0, end) + "…";
+}
+
 std::string show(const Json& value) {
-  std::string s = value.dump();
-  if (s.size() > 60) s = s.substr(0, 57) + "...";
-  return s;
+  if (value.is_string() && value.get_ref<const std::string&>().size() > 4 * kEcho)
+    return cut("\"" + value.get_ref<const std::string&>().substr(0, 4 * kEcho));
+  if ((value.is_object() || value.is_array()) && value.size() > 64) {
+    Json head = value.is_array() ? Json::array() : Json::object();
+    std::size_t k = 0;
+    for (auto it = value.begin(); it != value.end() && k < 8; ++it, ++k)
+      if (value.is_array()) head.push_back(*it);
+      else head[it.key()] = *it;
+    return cut(head.dump() + "…");
+  }
+  return cut(value.dump(-1, ' ', false, Json::error_handler_t::replace));
 }
 
 std::string child_pointer(const std::string& pointer, const std::string& key) {
   std::string out = pointer + "/";
-  for (char c : key) {
+  for (char c : key.size() > kEcho ? cut(key) : key) {
     if (c == '~') out += "~0";
     else if (c == '/') out += "~1";
     else out += c;
@@ -624,6 +660,7 @@ std::string child_pointer(const std::string& pointer, const std::string& key) {
 }
 
 std::string closest(const std::string& word, const std::vector<std::string>& candidates) {
+  if (word.size() > kEcho) return "";  // no typo of a known key is that long (and edit distance is quadratic)
   std::string best;
   std::size_t best_distance = SIZE_MAX;
   for (const auto& c : candidates) {
