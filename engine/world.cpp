@@ -102,8 +102,15 @@ std::size_t World::fragment_count() const {
 }
 
 double World::stable_time_step() const {
-  if (impl_->stable_dt == 0.0)
-    impl_->scheduler->execute([&] { impl_->stable_dt = setup::estimate_stable_time_step(*impl_->state); });
+  if (impl_->stable_dt == 0.0) {
+    // A world whose stiffness matrix cannot be analysed (overflowing constants) has no stable step:
+    // NaN, which every "dt <= limit" test refuses.
+    try {
+      impl_->scheduler->execute([&] { impl_->stable_dt = setup::estimate_stable_time_step(*impl_->state); });
+    } catch (const std::runtime_error&) {
+      impl_->stable_dt = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
   return impl_->stable_dt;
 }
 

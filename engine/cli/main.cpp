@@ -186,7 +186,13 @@ bool report_time_step(const perifx::World& world, std::ostream& out) {
   std::snprintf(buf, sizeof buf, "time step        %.3g s (stable limit %.3g s, %.0f%% of it)\n", dt, stable,
                 100.0 * dt / stable);
   out << buf;
-  if (!(dt <= stable)) {  // NaN (a degenerate world) refuses too
+  if (!(stable > 0.0)) {  // NaN: the stiffness could not be analysed
+    std::cerr << "perifx: error: " << world.scene().source.string()
+              << ": /materials: no stable time step can be computed (got overflowing stiffness or mass; expected "
+                 "moduli, densities and sizes of a real solid)\n";
+    return false;
+  }
+  if (!(dt <= stable)) {
     std::snprintf(buf, sizeof buf,
                   "time step above the stable explicit limit; the run would blow up (got %.3g s; expected at most "
                   "the stable step %.3g s, e.g. %.3g)", dt, stable, 0.9 * stable);
@@ -226,7 +232,15 @@ int cmd_run(const Args& a) {
   const std::optional<std::uint64_t> frames =
       a.frames ? std::optional<std::uint64_t>(static_cast<std::uint64_t>(parse_count("--frames", *a.frames, 1)))
                : std::nullopt;
+  if (a.out && a.out->empty()) throw UsageError{"--out expects a directory, got ''"};
   const auto sc = load(a);
+  if (frames) {
+    try {
+      perifx::scene::check_time(sc, *frames);
+    } catch (const perifx::scene::SceneError& e) {
+      throw UsageError{"--frames " + *a.frames + ": " + e.message()};
+    }
+  }
   perifx::setup::preflight(sc, !a.force);  // meshes checked, memory estimated (refused unless --force)
   perifx::World world(sc);
   const bool tty = ::isatty(STDERR_FILENO) && !a.quiet;

@@ -263,6 +263,11 @@ class Converter {
       out.bulk_modulus = E / (3.0 * (1.0 - 2.0 * nu));
       out.shear_modulus = E / (2.0 * (1.0 + nu));
     }
+    // Real solids carry waves at up to ~20 km/s; far beyond it the stable step is meaningless.
+    const double wave = std::sqrt((out.bulk_modulus + 4.0 / 3.0 * out.shear_modulus) / out.density);
+    if (!(wave <= kMaxWaveSpeed))
+      fail(p, "moduli too stiff for the density (got a wave speed sqrt((K + 4G/3)/density) of " +
+                  std::to_string(wave) + " m/s; expected at most 1e6 m/s)");
     out.yield_energy = num(m["yield_energy"]);
     out.plastic_cap_ratio = num(m["plastic_cap_ratio"]);
     out.critical_stretch = num(m["critical_stretch"]);
@@ -366,6 +371,9 @@ class Converter {
     if (!gmsh && ext != ".obj" && ext != ".ply" && ext != ".stl" && ext != ".off")
       fail(ptr, "unknown surface format '" + ext + "' (got " + show(path_json) + "; expected " + expected + ")");
     std::error_code ec;
+    if (fs::exists(file, ec) && !fs::is_regular_file(file, ec))
+      fail(ptr, "mesh file is not a regular file (got " + show(path_json) + "; expected " + expected +
+                    ", not a directory, FIFO or device)");
     if (!fs::is_regular_file(file, ec))
       fail(ptr, "mesh file not found: " + file.string() + " (got " + show(path_json) + "; expected " + expected +
                     ", relative to " + folder_.string() + ")");
@@ -498,6 +506,9 @@ void check_time(const Scene& s, std::uint64_t frames_override) {
   if (!(t.frame_rate * t.dt <= 1.0))
     throw SceneError(file, "/time/frame_rate", "frames closer together than one step (got " + g(t.frame_rate) +
                                                    " frames/s; expected at most 1/dt = " + g(1.0 / t.dt) + ")");
+  if (!(frames >= 1.0))
+    throw SceneError(file, "/time/frame_rate", "no frame in the duration (got duration × frame_rate = " + g(frames) +
+                                                   "; expected at least 1 frame after the initial one)");
   if (!(frames <= kMaxFrames))
     throw SceneError(file, "/time/frame_rate", "too many frames (got duration × frame_rate = " + g(frames) +
                                                    "; expected at most 1e6 frames)");

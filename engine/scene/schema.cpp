@@ -65,7 +65,7 @@ const std::vector<std::string> kMeshers = {"box", "sphere", "cylinder", "surface
 Key build_spec() {
   Key material = nested("materials", Type::map, "material",
       "Named materials; bodies refer to them by name (names cannot start with `_`).", {
-      number("density", "Mass density ρ, kg/m³.").gt(0).def(1000),
+      number("density", "Mass density ρ, kg/m³.").ge(1e-3).le(1e6).def(1000),
       number("bulk_modulus", "Bulk modulus κ, Pa.").gt(0),
       number("shear_modulus", "Shear modulus μ, Pa.").gt(0),
       number("youngs_modulus", "Young's modulus E, Pa. With ν: κ = E/(3(1−2ν)), μ = E/(2(1+ν)).").gt(0),
@@ -124,9 +124,9 @@ Key build_spec() {
       nested("horizon", Type::number_or_object, "horizon",
              "Horizon δ. A number f means δ = f·λ (λ = mean tet edge length); "
              "or an object with `factor` (the same) or `length` (δ in metres).", {
-          number("factor", "δ = factor·λ.").gt(0),
+          number("factor", "δ = factor·λ.").gt(0).le(20),
           number("length", "δ in metres.").gt(0),
-      }).gt(0).def(1.45).one_of({{"factor"}, {"length"}}, true),
+      }).gt(0).le(20).def(1.45).one_of({{"factor"}, {"length"}}, true),
   }).at_least(1).req();
 
   Key condition = nested("boundary_conditions", Type::array, "boundary condition",
@@ -218,9 +218,11 @@ Key build_spec() {
       integer("threads", "Worker threads; 0 = all hardware threads.").ge(0).def(0),
       vec3("gravity", "Gravitational acceleration, m/s² (Y is up).").def(Json::array({0, -9.81, 0})),
       object("time", "time", "Time stepping.", {
-          number("dt", "Time step, s; at most `duration`.").gt(0).req(),
+          number("dt", "Time step, s; at most `duration`, at least duration/1e9 (at most 1e9 steps), and at "
+                       "most the stable explicit limit (`perifx info`).").gt(0).req(),
           number("duration", "Simulated time, s.").gt(0).def(1),
-          number("frame_rate", "Output frames per simulated second.").gt(0).def(24),
+          number("frame_rate", "Output frames per simulated second; at most 1/dt (an error, not clamped) and "
+                               "at most 1e6 frames in `duration`.").gt(0).def(24),
       }).req(),
       object("model", "model", "Peridynamic model options.", {
           choice("normalization", {"paper", "discrete"},
@@ -651,7 +653,7 @@ std::string show(const Json& value) {
 
 std::string child_pointer(const std::string& pointer, const std::string& key) {
   std::string out = pointer + "/";
-  for (char c : key.size() > kEcho ? cut(key) : key) {
+  for (char c : cut(key)) {
     if (c == '~') out += "~0";
     else if (c == '/') out += "~1";
     else out += c;
