@@ -38,11 +38,13 @@ std::pair<std::size_t, std::size_t> line_column(const std::string& text, std::si
 
 // Checks nlohmann's recursive parser cannot be driven into a stack overflow, and that nothing but
 // whitespace follows the document: a scan of the raw text (strings skipped) for nesting deeper than
-// kMaxDepth and for NUL bytes (nlohmann stops at a NUL as if the text ended there).
+// kMaxDepth, for more than kMaxMembers object keys in all, and for NUL bytes (nlohmann stops at a NUL as if the text ended there).
 constexpr int kMaxDepth = 64;
+constexpr std::size_t kMaxMembers = 20000;
 
 void prescan(const std::string& text, const std::string& file) {
   int depth = 0;
+  std::size_t members = 0;
   bool in_string = false, escaped = false;
   for (std::size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
@@ -60,6 +62,10 @@ void prescan(const std::string& text, const std::string& file) {
       continue;
     }
     if (c == '"') in_string = true;
+    else if (c == ':' && ++members > kMaxMembers)
+      // nlohmann's ordered objects find keys linearly: a huge object would take minutes to read.
+      throw SceneError(file, "", at() + "too many object keys (got more than " + std::to_string(kMaxMembers) +
+                                     "; expected a scene, which needs a few hundred)");
     else if (c == '[' || c == '{') {
       if (++depth > kMaxDepth)
         throw SceneError(file, "", at() + "JSON nested too deeply (got more than " + std::to_string(kMaxDepth) +

@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -140,7 +141,8 @@ void fuzz_case(const std::string& category, const std::string& label, const std:
       CHECK_MESSAGE(finite, "a non-finite frame was written");
     }
   }
-  fs::remove_all(dir);
+  // PERIFX_FUZZ_KEEP=1 keeps the folders of failing cases for a look.
+  if (!(std::getenv("PERIFX_FUZZ_KEEP") && (o.code == 124 || !documented))) fs::remove_all(dir);
 }
 
 void write_text(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
