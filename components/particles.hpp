@@ -2,6 +2,7 @@
 // tetrahedron i of the body's embedded mesh (particles sit at tet barycenters, paper §5.2), and
 // particles are stored in Morton order so a family is close in memory.
 #pragma once
+#include <cstdint>
 #include <vector>
 
 #include "components/math.hpp"
@@ -74,6 +75,11 @@ struct ParticleState {
   std::vector<double> break_extension;      // (1 + α_i φ_i) s_c,i δ_i from that damage, m (∞: unbreakable)
   std::vector<std::uint32_t> broken_bonds;  // N_i − n_i, written with damage (damage system)
   std::vector<BondEnd> bond_end;            // packed far-end view for the fused bond pass (bond_pass.cpp)
+  // Health of the step: the lowest particle index whose position or velocity kick_end found non-finite
+  // or whose speed exceeds StepSettings::max_speed, or kAllStable. Written by kick_end with the
+  // velocity (part of the velocity component); World::step reads it after every step.
+  static constexpr std::uint64_t kAllStable = ~std::uint64_t(0);
+  std::uint64_t unstable_particle = kAllStable;
 };
 
 }  // namespace perifx

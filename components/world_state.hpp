@@ -6,6 +6,7 @@
 // vocabulary header perifx/scene.hpp.
 #pragma once
 #include <cstdint>
+#include <limits>
 #include <type_traits>
 #include <vector>
 
@@ -71,6 +72,10 @@ struct StepSettings {
   // The embedded mesh's vertices follow the particles every step (systems/mesh_vertices.cpp) when
   // the scene writes the split mesh (obj, surface_ply, tets_vtu) or can break.
   bool mesh_output = false;
+  // Instability bound (kick_end): a free particle faster than this, m/s, means the run blew up.
+  // 10 × (fastest wave speed sqrt((κ + 4μ/3)/ρ) + every prescribed, initial, collider, projectile and
+  // gravity speed), set in engine/setup/world_setup.cpp; +∞ turns the speed test off (finiteness stays).
+  double max_speed = std::numeric_limits<double>::infinity();
 };
 
 struct WorldState {

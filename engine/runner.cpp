@@ -139,6 +139,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
   if (mesh_output && !world.has_embedded_mesh())
     throw std::invalid_argument("output formats obj/surface_ply/surface_vtp/tets_vtu need the embedded tet mesh "
                                 "(solver 'peridynamics')");
+  io::remove_stale_temporaries(summary.output_directory);  // *.tmp-<pid> of killed runs
   const std::size_t bonds = world.bond_count();
 
   // A folder holding another run: refuse, clear it, or continue it from its checkpoint.
@@ -255,7 +256,16 @@ RunSummary run_world(World& world, const RunOptions& options) {
   for (std::uint64_t k = start_frame + 1; k <= frames; ++k) {
     const std::uint64_t target = first_step + step_of_frame(k);
     const auto t0 = clock::now();
-    while (world.step_count() < target) world.step();
+    try {
+      while (world.step_count() < target) world.step();
+    } catch (const InstabilityError& e) {
+      // Name the last good frame (already on disk); the bad state is never written.
+      std::string message = e.what();
+      const std::string note = "; the last valid frame is " + std::to_string(k - 1) + " (already written)";
+      const auto hint = message.find("; hint:");
+      message.insert(hint == std::string::npos ? message.size() : hint, note);
+      throw InstabilityError(message, e.step(), e.particle());
+    }
     step_wall += std::chrono::duration<double>(clock::now() - t0).count();
     write_frame(k);
     summary.last_frame = k;

@@ -1,5 +1,7 @@
 #include "perifx/world.hpp"
 
+#include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -46,6 +48,35 @@ void World::step() {
   auto& c = impl_->state->clock;
   ++c.step;
   c.time = static_cast<double>(c.step) * c.dt;  // no drift from summing dt
+  if (impl_->state->state.unstable_particle != ParticleState::kAllStable) throw_instability();
+}
+
+// One line naming the scene, body, particle, position, step and time, with what was expected and a
+// hint (the time step against the stable limit, contact stiffness).
+void World::throw_instability() const {
+  const WorldState& w = *impl_->state;
+  const std::size_t i = static_cast<std::size_t>(w.state.unstable_particle);
+  const auto& p = w.particles;
+  const std::size_t body = p.body_id[i];
+  const std::string body_name = body < w.bodies.size() ? w.bodies[body].name : "?";
+  const Vec3 y = p.position[i], v = p.velocity[i];
+  const bool finite = std::isfinite(y.x() + y.y() + y.z() + v.x() + v.y() + v.z());
+  char buf[640];
+  std::snprintf(buf, sizeof buf,
+                "unstable simulation: body '%s' particle %zu at (%.4g, %.4g, %.4g) m %s at step %llu, t = %.6g s "
+                "(got |v| = %.3g m/s; expected finite and at most %.3g m/s, 10x the fastest wave and prescribed speed)",
+                body_name.substr(0, 80).c_str(), i, y.x(), y.y(), y.z(),
+                finite ? "runs away" : "has a non-finite position or velocity", static_cast<unsigned long long>(w.clock.step),
+                w.clock.time, v.norm(), w.settings.max_speed);
+  std::string message = impl_->scene.source.string() + ": /bodies/" + std::to_string(body) + ": " + buf;
+  const double stable = stable_time_step();
+  char hint[320];
+  std::snprintf(hint, sizeof hint,
+                "; hint: time/dt = %.3g s is %.0f%% of the stable limit %.3g s (try <= 50%%)%s", w.clock.dt,
+                100.0 * w.clock.dt / stable, stable,
+                w.contact.enabled || !w.settings.colliders.empty() || !w.projectiles.bodies.empty()
+                    ? ", or lower contact/stiffness_factor" : "");
+  throw InstabilityError(message + hint, w.clock.step, i);
 }
 
 void World::step(std::uint64_t count) {
@@ -72,8 +103,15 @@ std::size_t World::fragment_count() const {
 }
 
 double World::stable_time_step() const {
-  if (impl_->stable_dt == 0.0)
-    impl_->scheduler->execute([&] { impl_->stable_dt = setup::estimate_stable_time_step(*impl_->state); });
+  if (impl_->stable_dt == 0.0) {
+    // A world whose stiffness matrix cannot be analysed (overflowing constants) has no stable step:
+    // NaN, which every "dt <= limit" test refuses.
+    try {
+      impl_->scheduler->execute([&] { impl_->stable_dt = setup::estimate_stable_time_step(*impl_->state); });
+    } catch (const std::runtime_error&) {
+      impl_->stable_dt = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
   return impl_->stable_dt;
 }
 

@@ -8,7 +8,12 @@
 // kick_begin  reads acceleration, flags; writes velocity.
 // drift       reads velocity;            writes position.
 // kick_end    reads internal_force, external_force, contact_force, flags; writes velocity, acceleration.
+//             It also checks every particle's new state (the step's health, part of velocity): a
+//             non-finite position or velocity, or a free particle faster than settings.max_speed, is
+//             recorded as the lowest such index in state.unstable_particle (an atomic minimum: the
+//             same for any thread count; no cost beyond a compare while the run is healthy).
 // (contact_force stays zero when neither contact nor projectiles run.)
+#include <atomic>
 #include <cmath>
 
 #include "parallel.hpp"
@@ -45,14 +50,31 @@ SystemDecl kick_end_system(WorldState& w) {
           [&w] {
             const double half = 0.5 * w.clock.dt;
             auto& p = w.particles;
-            const auto& s = w.state;
+            auto& s = w.state;
+            const double max_speed2 = w.settings.max_speed * w.settings.max_speed;
+            s.unstable_particle = ParticleState::kAllStable;
+            std::atomic_ref<std::uint64_t> unstable(s.unstable_particle);
+            const auto report = [&](std::uint64_t i) {
+              std::uint64_t seen = unstable.load(std::memory_order_relaxed);
+              while (i < seen && !unstable.compare_exchange_weak(seen, i, std::memory_order_relaxed)) {
+              }
+            };
             parallel_for_each(p.count(), [&](std::size_t i) {
               const Vec3 a = (s.internal_force[i] + s.external_force[i] + s.contact_force[i]) / p.mass[i];
               p.acceleration[i] = a;
-              if (p.flags[i] & kPrescribed) return;
+              const Vec3& y = p.position[i];
+              if (p.flags[i] & kPrescribed) {
+                // The boundary condition owns this velocity: only finiteness is checked.
+                const Vec3& v = p.velocity[i];
+                if (!std::isfinite(y.x() + y.y() + y.z() + v.x() + v.y() + v.z())) report(i);
+                return;
+              }
               const double c = w.model.damping[i];
               const double decay = c > 0.0 ? std::exp(-c * half) : 1.0;
-              p.velocity[i] = decay * p.velocity[i] + half * a;
+              const Vec3 v = decay * p.velocity[i] + half * a;
+              p.velocity[i] = v;
+              // NaN fails the comparison too; the position sum is finite unless a coordinate is not.
+              if (!(v.squaredNorm() <= max_speed2) || !std::isfinite(y.x() + y.y() + y.z())) report(i);
             }, 4096);
           }};
 }

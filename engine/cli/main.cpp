@@ -3,6 +3,7 @@
 //   0 success   1 usage error   2 invalid scene or mesh   3 output could not be written
 //   4 time step above the stable limit   5 internal error
 //   6 interrupted by SIGTERM/SIGINT (the frame in progress, a checkpoint and the summary were written)
+//   7 simulation became unstable   8 not enough memory (estimate above the available memory; run --force overrides)
 #include <unistd.h>
 
 #include <csignal>
@@ -23,13 +24,15 @@
 #include "io/atomic.hpp"
 #include "perifx/world.hpp"
 #include "runner.hpp"
+#include "setup/preflight.hpp"
 #include "tools/compare.hpp"
 #include "tools/render/command.hpp"
 #include "tools/surface_check.hpp"
 
 namespace {
 
-enum Exit { kOk = 0, kUsage = 1, kScene = 2, kOutput = 3, kUnstable = 4, kInternal = 5, kInterrupted = 6 };
+enum Exit { kOk = 0, kUsage = 1, kScene = 2, kOutput = 3, kUnstable = 4, kInternal = 5, kInterrupted = 6,
+           kBlowUp = 7, kMemory = 8 };
 
 // The one global of the program: a signal handler can only set a flag. `perifx run` installs
 // on_stop_signal for SIGTERM and SIGINT (one-shot: a second signal kills as usual) and the run loop
@@ -48,7 +51,7 @@ struct Args {
   std::string command, scene;
   std::string second;  // compare: RUN_B
   std::optional<std::string> out, frames, threads, solver, dt, progress, horizon;
-  bool quiet = false, overwrite = false, resume = false;
+  bool quiet = false, overwrite = false, resume = false, force = false;
   bool render = false;  // run --render
 };
 
@@ -121,7 +124,24 @@ perifx::scene::Scene load(const Args& a) {
     sc.solver = *a.solver == "fem_linear" ? Solver::fem_linear
                 : *a.solver == "fem_corotated" ? Solver::fem_corotated : Solver::peridynamics;
   }
-  if (dt) sc.time.dt = *dt;
+  if (dt) {
+    sc.time.dt = *dt;
+    try {
+      perifx::scene::check_time(sc);
+    } catch (const perifx::scene::SceneError& e) {
+      throw UsageError{"--dt " + *a.dt + ": " + e.message()};
+    }
+  }
+  if (sc.solver != perifx::scene::Solver::peridynamics && sc.output.surfaces_by_default) {
+    // Surfaces the scene did not list (the default): an FEM run has no split mesh, so leave them out.
+    sc.output.obj = sc.output.surface_ply = false;
+    sc.output.surfaces_by_default = false;
+  }
+  if (sc.solver != perifx::scene::Solver::peridynamics &&
+      (sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || sc.output.tets_vtu))
+    throw perifx::scene::SceneError(a.scene, "/output/formats",
+                                    "obj, surface_ply, surface_vtp and tets_vtu need the embedded tet mesh (got an FEM "
+                                    "solver; expected solver 'peridynamics' or formats vtu, ply)");
   return sc;
 }
 
@@ -171,8 +191,22 @@ int cmd_check_surface(const Args& a) {
   }
 }
 
+bool report_time_step(const perifx::World& world, std::ostream& out);
+
+// Everything run refuses before the first step: the scene, every mesh's contents, the memory
+// estimate, the world's setup and the stable-step limit.
 int cmd_check(const Args& a) {
   const auto sc = load(a);
+  const auto estimate = perifx::setup::preflight(sc, true);
+  {
+    perifx::World world(sc);
+    std::ostringstream verdict;
+    if (!report_time_step(world, verdict)) return kUnstable;
+  }
+  std::cout << a.scene << ": memory estimate " << perifx::setup::format_bytes(estimate.bytes) << " for "
+            << estimate.particles << " particles (available "
+            << (estimate.available > 0 ? perifx::setup::format_bytes(estimate.available) : std::string("unknown"))
+            << ")\n";
   std::cout << a.scene << ": ok (" << sc.materials.size() << " materials, " << sc.bodies.size() << " bodies, "
             << sc.boundary_conditions.size() << " boundary conditions, " << sc.colliders.size() << " colliders)\n";
   return kOk;
@@ -186,11 +220,17 @@ bool report_time_step(const perifx::World& world, std::ostream& out) {
   std::snprintf(buf, sizeof buf, "time step        %.3g s (stable limit %.3g s, %.0f%% of it)\n", dt, stable,
                 100.0 * dt / stable);
   out << buf;
-  if (dt > stable) {
+  if (!(stable > 0.0)) {  // NaN: the stiffness could not be analysed
+    std::cerr << "perifx: error: " << world.scene().source.string()
+              << ": /materials: no stable time step can be computed (got overflowing stiffness or mass; expected "
+                 "moduli, densities and sizes of a real solid)\n";
+    return false;
+  }
+  if (!(dt <= stable)) {
     std::snprintf(buf, sizeof buf,
-                  "error: time/dt = %.3g s exceeds the stable explicit step %.3g s; the run would blow up. "
-                  "Use time/dt <= %.3g.\n", dt, stable, 0.9 * stable);
-    std::cerr << buf;
+                  "time step above the stable explicit limit; the run would blow up (got %.3g s; expected at most "
+                  "the stable step %.3g s, e.g. %.3g)", dt, stable, 0.9 * stable);
+    std::cerr << "perifx: error: " << world.scene().source.string() << ": /time/dt: " << buf << "\n";
     return false;
   }
   if (dt > 0.8 * stable) out << "warning: time/dt is within 20% of the stable limit; large deformation may still blow up\n";
@@ -243,9 +283,19 @@ int cmd_run(const Args& a) {
   if (a.progress && *a.progress != "text" && *a.progress != "json")
     throw UsageError{"--progress expects text or json, got '" + *a.progress + "'"};
   if (a.overwrite && a.resume) throw UsageError{"--overwrite and --resume exclude each other"};
+  if (a.out && a.out->empty()) throw UsageError{"--out expects a directory, got ''"};
   const bool json = a.progress && *a.progress == "json";
   const bool talk = !a.quiet && !json;  // human-readable lines on stderr
-  perifx::World world(load(a));
+  const auto sc = load(a);
+  if (frames) {
+    try {
+      perifx::scene::check_time(sc, *frames);
+    } catch (const perifx::scene::SceneError& e) {
+      throw UsageError{"--frames " + *a.frames + ": " + e.message()};
+    }
+  }
+  perifx::setup::preflight(sc, !a.force);  // meshes checked, memory estimated (refused unless --force)
+  perifx::World world(sc);
   const bool tty = ::isatty(STDERR_FILENO) && talk;
   if (talk)
     std::cerr << "perifx: " << world.scene().name << ": " << world.particle_count() << " particles, "
@@ -405,6 +455,7 @@ int main(int argc, char** argv) {
   app.footer(
       "exit codes: 0 ok, 1 usage, 2 invalid scene or mesh, 3 output error, 4 unstable time step, 5 internal,\n"
       "6 interrupted (SIGTERM/SIGINT; checkpoint written, continue with run --resume)\n"
+      "7 simulation blew up, 8 not enough memory\n"
       "Run perifx COMMAND --help for a command's options.");
   Args a;
   // Scene overrides shared by run, check and info.
@@ -425,6 +476,7 @@ int main(int argc, char** argv) {
   run->add_flag("--resume", a.resume, "continue the run in the output directory after its last checkpoint "
                                       "(start over when there is none)");
   run->add_flag("--render", a.render, "then render PNG frames (and movie.mp4 with ffmpeg) into OUT/render");
+  run->add_flag("--force", a.force, "run even when the memory estimate exceeds the available memory");
   scene_options(app.add_subcommand("check", "validate the scene without running it"));
   scene_options(app.add_subcommand("info", "particles, bonds, memory, the stable time step and the task graph"));
   app.add_subcommand("spec", "print the scene format reference (markdown)");
@@ -494,6 +546,12 @@ int main(int argc, char** argv) {
   } catch (const perifx::geometry::GeometryError& e) {
     std::cerr << "perifx: error: " << e.what() << "\n";
     return kScene;
+  } catch (const perifx::setup::MemoryError& e) {
+    std::cerr << "perifx: error: " << e.what() << "\n";
+    return kMemory;
+  } catch (const perifx::InstabilityError& e) {
+    std::cerr << "perifx: error: " << e.what() << "\n";
+    return kBlowUp;
   } catch (const perifx::io::IoError& e) {
     std::cerr << "perifx: error: " << e.what() << "\n";
     return kOutput;

@@ -25,6 +25,11 @@ class ReadError : public Error {
 // the path and the OS error on failure (and removes the temporary).
 void write_atomic(const std::filesystem::path& target, const std::function<void(std::ostream&)>& fill);
 
+// Removes "<name>.tmp-<pid>" files in `dir` left by killed runs: those whose pid is not a running
+// process (a live writer's temporaries are kept). Returns how many were removed; a missing
+// directory is not an error.
+std::size_t remove_stale_temporaries(const std::filesystem::path& dir);
+
 // The whole content of a file (binary-safe). `kind` names the file in messages ("Gmsh mesh"):
 // "<kind> file '<path>' does not exist", "cannot open <kind> file '<path>'".
 std::string read_file(const std::filesystem::path& path, const std::string& kind);

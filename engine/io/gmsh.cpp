@@ -91,6 +91,7 @@ class GmshReader {
   long long count(std::string_view token, const char* what) const {
     const long long n = in_.integer(token, what);
     if (n < 0 || n > static_cast<long long>(UINT32_MAX / 4)) in_.fail(std::string(what) + " " + std::to_string(n) + " is out of range");
+    in_.check_fits(n, 2, what);  // every node, element or block takes a line
     return n;
   }
 

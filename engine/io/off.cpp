@@ -46,6 +46,7 @@ TriangleSurface read_off(const fs::path& file) {
   const long long nf = in.integer(tok[first + 1], "face count");
   if (nv < 0 || nv > static_cast<long long>(UINT32_MAX) || nf < 0) in.fail("vertex or face count out of range");
   TriangleSurface s;
+  in.check_fits(nv + nf, 6, "vertex and face count");  // "x y z\n", "3 a b c\n"
   s.vertices.reserve(static_cast<std::size_t>(nv));
   for (long long k = 0; k < nv; ++k) {
     if (!in.next(tok)) in.fail_truncated("expected " + std::to_string(nv) + " vertices, found " + std::to_string(k));

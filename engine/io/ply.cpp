@@ -300,6 +300,15 @@ PlyContent read_ply(const fs::path& file) {
     }
   }
   if (format.empty()) throw ReadError(name + ": PLY header has no 'format' line");
+  // Every count is checked against the bytes that follow the header before anything is allocated: a
+  // property takes at least one byte (binary char, or an ASCII digit and its separator).
+  for (const PlyElement& e : elements) {
+    const double least = double(e.count) * double(std::max<std::size_t>(1, e.properties.size()));
+    if (least > double(data.size() - body))
+      throw ReadError(name + ": PLY element '" + e.name.substr(0, 40) + "' count " + std::to_string(e.count) +
+                      " is more than the file can hold (got " + std::to_string(data.size() - body) +
+                      " bytes after the header; expected at least one per property and element)");
+  }
 
   PlyContent content;
   TriangleSurface& s = content.surface;

@@ -58,6 +58,7 @@ TetFile read_tetgen(const fs::path& node_file) {
     const long long dim = node.integer(tok[1], "dimension");
     if (dim != 3) node.fail("dimension is " + std::to_string(dim) + "; only 3-D meshes are supported");
   }
+  node.check_fits(npoints, 8, "point count");  // "i x y z\n"
   mesh.vertices.resize(static_cast<std::size_t>(npoints));
   long long base = 0;  // 0 or 1, taken from the first point's index
   for (long long k = 0; k < npoints; ++k) {
@@ -89,6 +90,7 @@ TetFile read_tetgen(const fs::path& node_file) {
   if (per_tet != 4 && per_tet != 10) {
     ele.fail("nodes per tet is " + std::to_string(per_tet) + "; expected 4 or 10");
   }
+  ele.check_fits(ntets, 10, "tet count");  // "i a b c d\n"
   mesh.tets.resize(static_cast<std::size_t>(ntets));
   mesh.tet_line.resize(mesh.tets.size());
   mesh.tet_id.resize(mesh.tets.size());

@@ -77,6 +77,17 @@ class TokenLines {
     return value;
   }
 
+  // A count read from a header, before anything of that size is allocated: `count` items of at least
+  // `min_bytes` each must fit in the rest of the file, else "file:line: <what> N is more than the
+  // file can hold".
+  void check_fits(long long count, std::size_t min_bytes, const char* what) const {
+    const std::size_t rest = pos_ < text_.size() ? text_.size() - pos_ : 0;
+    if (count > 0 && double(count) * double(min_bytes) > double(rest) + 1.0)
+      fail(std::string(what) + " " + std::to_string(count) + " is more than the file can hold (got " +
+           std::to_string(rest) + " bytes after this line; expected at least " + std::to_string(min_bytes) +
+           " per item)");
+  }
+
   std::size_t line() const { return line_; }
   std::size_t offset() const { return pos_; }  // start of the line after the last one returned
   const std::string& name() const { return name_; }

@@ -6,9 +6,11 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <functional>
 #include <sstream>
+#include <unordered_set>
 #include <utility>
 
 #include "perifx/scene.hpp"
@@ -34,14 +36,55 @@ std::pair<std::size_t, std::size_t> line_column(const std::string& text, std::si
   return {line, at - line_start + 1};
 }
 
+// Checks nlohmann's recursive parser cannot be driven into a stack overflow, and that nothing but
+// whitespace follows the document: a scan of the raw text (strings skipped) for nesting deeper than
+// kMaxDepth, for more than kMaxMembers object keys in all, and for NUL bytes (nlohmann stops at a NUL as if the text ended there).
+constexpr int kMaxDepth = 64;
+constexpr std::size_t kMaxMembers = 20000;
+
+void prescan(const std::string& text, const std::string& file) {
+  int depth = 0;
+  std::size_t members = 0;
+  bool in_string = false, escaped = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    auto at = [&] {
+      const auto [line, column] = line_column(text, i + 1);
+      return "line " + std::to_string(line) + ", column " + std::to_string(column) + ": ";
+    };
+    if (c == '\0')
+      throw SceneError(file, "", at() + "NUL byte in the scene file (got byte 0; expected a text file holding one "
+                                        "JSON document)");
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') in_string = false;
+      continue;
+    }
+    if (c == '"') in_string = true;
+    else if (c == ':' && ++members > kMaxMembers)
+      // nlohmann's ordered objects find keys linearly: a huge object would take minutes to read.
+      throw SceneError(file, "", at() + "too many object keys (got more than " + std::to_string(kMaxMembers) +
+                                     "; expected a scene, which needs a few hundred)");
+    else if (c == '[' || c == '{') {
+      if (++depth > kMaxDepth)
+        throw SceneError(file, "", at() + "JSON nested too deeply (got more than " + std::to_string(kMaxDepth) +
+                                       " levels of arrays/objects; expected a scene, which needs fewer than 10)");
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+}
+
 Json parse(const std::string& text, const std::string& file) {
+  prescan(text, file);
   // Duplicate keys are legal JSON but nlohmann silently keeps the last one, which would hide
   // e.g. two materials of the same name. A parser callback tracks the path to report them.
   struct Frame {
     bool array;
     std::size_t index = 0;  // array: the element being parsed
     std::string key;        // object: the member being parsed
-    std::vector<std::string> seen;
+    std::unordered_set<std::string> seen;
   };
   std::vector<Frame> stack;
   const auto pointer = [&] {
@@ -57,10 +100,9 @@ Json parse(const std::string& text, const std::string& file) {
       case Json::parse_event_t::key: {
         Frame& f = stack.back();
         f.key = parsed.get<std::string>();
-        if (std::find(f.seen.begin(), f.seen.end(), f.key) != f.seen.end())
+        if (!f.seen.insert(f.key).second)
           throw SceneError(file, child_pointer(pointer(), f.key),
-                           "duplicate key '" + f.key + "' (expected each key once per object)");
-        f.seen.push_back(f.key);
+                           "duplicate key '" + detail::cut(f.key) + "' (expected each key once per object)");
         break;
       }
       case Json::parse_event_t::object_end:
@@ -114,6 +156,7 @@ class Converter {
     if (s.time.dt > s.time.duration)
       fail("/time/dt", "time step longer than the duration (got " + show(t["dt"]) +
                            "; expected at most duration = " + show(t["duration"]) + ")");
+    check_time(s);
 
     s.normalization = j["model"]["normalization"] == "paper" ? Normalization::paper : Normalization::discrete;
     s.family = j["model"]["family"] == "mesh" ? FamilyRule::mesh : FamilyRule::distance;
@@ -228,6 +271,11 @@ class Converter {
       out.bulk_modulus = E / (3.0 * (1.0 - 2.0 * nu));
       out.shear_modulus = E / (2.0 * (1.0 + nu));
     }
+    // Real solids carry waves at up to ~20 km/s; far beyond it the stable step is meaningless.
+    const double wave = std::sqrt((out.bulk_modulus + 4.0 / 3.0 * out.shear_modulus) / out.density);
+    if (!(wave <= kMaxWaveSpeed))
+      fail(p, "moduli too stiff for the density (got a wave speed sqrt((K + 4G/3)/density) of " +
+                  std::to_string(wave) + " m/s; expected at most 1e6 m/s)");
     out.yield_energy = num(m["yield_energy"]);
     out.plastic_cap_ratio = num(m["plastic_cap_ratio"]);
     out.critical_stretch = num(m["critical_stretch"]);
@@ -301,6 +349,11 @@ class Converter {
     out.transform.scale = num(tr["scale"]);
     out.velocity = vec(b["velocity"]);
     out.angular_velocity = vec(b["angular_velocity"]);
+    if (!(out.velocity.norm() < kMaxSpeed))
+      fail(p + "/velocity", "speed too high (got " + show(b["velocity"]) + "; expected |velocity| below 3e8 m/s)");
+    if (!(out.transform.translation.cwiseAbs().maxCoeff() <= kMaxCoordinate))
+      fail(p + "/transform/translate", "too far away (got " + show(tr["translate"]) +
+                                           "; expected coordinates within 1e9 m)");
 
     const Json& h = b["horizon"];
     if (h.is_number()) out.horizon_factor = num(h);
@@ -331,6 +384,9 @@ class Converter {
     if (!gmsh && ext != ".obj" && ext != ".ply" && ext != ".stl" && ext != ".off")
       fail(ptr, "unknown surface format '" + ext + "' (got " + show(path_json) + "; expected " + expected + ")");
     std::error_code ec;
+    if (fs::exists(file, ec) && !fs::is_regular_file(file, ec))
+      fail(ptr, "mesh file is not a regular file (got " + show(path_json) + "; expected " + expected +
+                    ", not a directory, FIFO or device)");
     if (!fs::is_regular_file(file, ec))
       fail(ptr, "mesh file not found: " + file.string() + " (got " + show(path_json) + "; expected " + expected +
                     ", relative to " + folder_.string() + ")");
@@ -448,6 +504,34 @@ class Converter {
 
 }  // namespace
 
+void check_time(const Scene& s, std::uint64_t frames_override) {
+  const std::string file = s.source.string();
+  const auto& t = s.time;
+  auto g = [](double x) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.6g", x);
+    return std::string(buf);
+  };
+  const double frames = frames_override ? double(frames_override) : std::floor(t.duration * t.frame_rate + 1e-9);
+  const double duration = frames_override ? double(frames_override) / t.frame_rate : t.duration;
+  if (!(t.dt > 0.0) || !std::isfinite(t.dt))
+    throw SceneError(file, "/time/dt", "not a time step (got " + g(t.dt) + "; expected a positive number of seconds)");
+  if (!(t.frame_rate * t.dt <= 1.0))
+    throw SceneError(file, "/time/frame_rate", "frames closer together than one step (got " + g(t.frame_rate) +
+                                                   " frames/s; expected at most 1/dt = " + g(1.0 / t.dt) + ")");
+  if (!(frames >= 1.0))
+    throw SceneError(file, "/time/frame_rate", "no frame in the duration (got duration × frame_rate = " + g(frames) +
+                                                   "; expected at least 1 frame after the initial one)");
+  if (!(frames <= kMaxFrames))
+    throw SceneError(file, "/time/frame_rate", "too many frames (got duration × frame_rate = " + g(frames) +
+                                                   "; expected at most 1e6 frames)");
+  if (!(duration / t.dt <= kMaxSteps))
+    throw SceneError(file, "/time/dt", "too many steps: time step too small for the duration (got dt = " + g(t.dt) +
+                                           " s for " + g(duration) + " s, " + g(duration / t.dt) +
+                                           " steps; expected at most 1e9 steps, dt >= " + g(duration / kMaxSteps) +
+                                           " s)");
+}
+
 Scene load_scene_text(const std::string& text, const fs::path& file) {
   const std::string name = file.string();
   Json j = parse(text, name);
@@ -470,6 +554,16 @@ Scene load_scene_text(const std::string& text, const fs::path& file) {
 }
 
 Scene load_scene_file(const fs::path& file) {
+  // A FIFO or device would block or never end; a huge file is no scene.
+  std::error_code ec;
+  const auto status = fs::status(file, ec);
+  if (!ec && fs::exists(status) && !fs::is_regular_file(status))
+    throw SceneError(file.string(), "", "not a regular file (got " + detail::cut(fs::absolute(file).string()) +
+                                            "; expected a JSON file, not a directory, FIFO or device)");
+  constexpr std::uintmax_t kMaxSceneBytes = 64u << 20;
+  if (const auto size = fs::file_size(file, ec); !ec && size > kMaxSceneBytes)
+    throw SceneError(file.string(), "", "scene file too large (got " + std::to_string(size) +
+                                            " bytes; expected at most 64 MiB)");
   std::ifstream in(file, std::ios::binary);
   if (!in)
     throw SceneError(file.string(), "", "cannot open the scene file (got " + fs::absolute(file).string() +

@@ -7,6 +7,7 @@
 #include <cctype>
 #include <climits>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <sstream>
 
@@ -64,7 +65,7 @@ const std::vector<std::string> kMeshers = {"box", "sphere", "cylinder", "surface
 Key build_spec() {
   Key material = nested("materials", Type::map, "material",
       "Named materials; bodies refer to them by name (names cannot start with `_`).", {
-      number("density", "Mass density ρ, kg/m³.").gt(0).def(1000),
+      number("density", "Mass density ρ, kg/m³.").ge(1e-3).le(1e6).def(1000),
       number("bulk_modulus", "Bulk modulus κ, Pa.").gt(0),
       number("shear_modulus", "Shear modulus μ, Pa.").gt(0),
       number("youngs_modulus", "Young's modulus E, Pa. With ν: κ = E/(3(1−2ν)), μ = E/(2(1+ν)).").gt(0),
@@ -129,9 +130,9 @@ Key build_spec() {
       nested("horizon", Type::number_or_object, "horizon",
              "Horizon δ. A number f means δ = f·λ (λ = mean tet edge length); "
              "or an object with `factor` (the same) or `length` (δ in metres).", {
-          number("factor", "δ = factor·λ.").gt(0),
+          number("factor", "δ = factor·λ.").gt(0).le(20),
           number("length", "δ in metres.").gt(0),
-      }).gt(0).def(1.45).one_of({{"factor"}, {"length"}}, true),
+      }).gt(0).le(20).def(1.45).one_of({{"factor"}, {"length"}}, true),
   }).at_least(1).req();
 
   Key condition = nested("boundary_conditions", Type::array, "boundary condition",
@@ -223,9 +224,11 @@ Key build_spec() {
       integer("threads", "Worker threads; 0 = all hardware threads.").ge(0).def(0),
       vec3("gravity", "Gravitational acceleration, m/s² (Y is up).").def(Json::array({0, -9.81, 0})),
       object("time", "time", "Time stepping.", {
-          number("dt", "Time step, s; at most `duration`.").gt(0).req(),
+          number("dt", "Time step, s; at most `duration`, at least duration/1e9 (at most 1e9 steps), and at "
+                       "most the stable explicit limit (`perifx info`).").gt(0).req(),
           number("duration", "Simulated time, s.").gt(0).def(1),
-          number("frame_rate", "Output frames per simulated second.").gt(0).def(24),
+          number("frame_rate", "Output frames per simulated second; at most 1/dt (an error, not clamped) and "
+                               "at most 1e6 frames in `duration`.").gt(0).def(24),
       }).req(),
       object("model", "model", "Peridynamic model options.", {
           choice("normalization", {"paper", "discrete"},
@@ -509,11 +512,11 @@ class Validator {
       if (!k) {
         std::string guess = closest(name, usable);
         if (guess.empty()) guess = closest(name, all);
-        if (!guess.empty()) fail(p, "unknown key '" + name + "'; did you mean '" + guess + "'?");
-        fail(p, "unknown key '" + name + "' (expected one of: " + join(usable) + ")");
+        if (!guess.empty()) fail(p, "unknown key '" + cut(name) + "'; did you mean '" + guess + "'?");
+        fail(p, "unknown key '" + cut(name) + "' (expected one of: " + join(usable) + ")");
       }
       if (!applies(*k))
-        fail(p, "key '" + name + "' is not used by " + spec.label + " type '" + type + "' (used by: " +
+        fail(p, "key '" + cut(name) + "' is not used by " + spec.label + " type '" + type + "' (used by: " +
                     join(k->only_for) + ")");
     }
 
@@ -618,15 +621,50 @@ std::string join(const std::vector<std::string>& items, const std::string& separ
   return out;
 }
 
+// Echoed input is cut to kEcho bytes (at a UTF-8 character boundary) with "…", so a huge value or
+// key never floods a message; control characters are escaped so a message stays one line.
+constexpr std::size_t kEcho = 80;
+
+std::string cut(const std::string& text) {
+  std::string out;
+  std::size_t used = 0;
+  for (; used < text.size() && out.size() < kEcho; ++used) {
+    const auto c = static_cast<unsigned char>(text[used]);
+    if (c < 0x20 || c == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      out += buf;
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  if (used == text.size()) return out;
+  // Drop a multi-byte character the cut went through.
+  std::size_t end = out.size();
+  if ((static_cast<unsigned char>(text[used]) & 0xC0) == 0x80) {
+    while (end > 0 && (static_cast<unsigned char>(out[end - 1]) & 0xC0) == 0x80) --end;
+    if (end > 0) --end;
+  }
+  return out.substr(0, end) + "…";
+}
+
 std::string show(const Json& value) {
-  std::string s = value.dump();
-  if (s.size() > 60) s = s.substr(0, 57) + "...";
-  return s;
+  if (value.is_string() && value.get_ref<const std::string&>().size() > 4 * kEcho)
+    return cut("\"" + value.get_ref<const std::string&>().substr(0, 4 * kEcho));
+  if ((value.is_object() || value.is_array()) && value.size() > 64) {
+    Json head = value.is_array() ? Json::array() : Json::object();
+    std::size_t k = 0;
+    for (auto it = value.begin(); it != value.end() && k < 8; ++it, ++k)
+      if (value.is_array()) head.push_back(*it);
+      else head[it.key()] = *it;
+    return cut(head.dump() + "…");
+  }
+  return cut(value.dump(-1, ' ', false, Json::error_handler_t::replace));
 }
 
 std::string child_pointer(const std::string& pointer, const std::string& key) {
   std::string out = pointer + "/";
-  for (char c : key) {
+  for (char c : cut(key)) {
     if (c == '~') out += "~0";
     else if (c == '/') out += "~1";
     else out += c;
@@ -635,6 +673,7 @@ std::string child_pointer(const std::string& pointer, const std::string& key) {
 }
 
 std::string closest(const std::string& word, const std::vector<std::string>& candidates) {
+  if (word.size() > kEcho) return "";  // no typo of a known key is that long (and edit distance is quadratic)
   std::string best;
   std::size_t best_distance = SIZE_MAX;
   for (const auto& c : candidates) {

@@ -87,6 +87,7 @@ void validate(Json& root, const std::string& file);
 
 // Message helpers shared with the converter.
 std::string show(const Json& value);                 // compact JSON text for "(got ...)"
+std::string cut(const std::string& text);            // echoed text: at most 80 bytes + "…", one line
 std::string child_pointer(const std::string& pointer, const std::string& key);  // RFC 6901 escaping
 // The candidate closest to `word` by edit distance, or "" when none is plausibly a typo of it.
 std::string closest(const std::string& word, const std::vector<std::string>& candidates);

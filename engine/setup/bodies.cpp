@@ -4,6 +4,9 @@
 // FEM reference solver, one particle per mesh vertex with its lumped volume. Also sizes the per-step
 // state arrays.
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
 
 #include "geometry/geometry.hpp"
 #include "setup/world_setup.hpp"
@@ -36,24 +39,58 @@ TetMesh mesh_for(const scene::Body& body) {
   return {};
 }
 
+// A mesh problem as the scene's one-line error: "<scene>: /bodies/<k>/geometry: <problem> (...)".
+[[noreturn]] void body_error(const scene::Scene& scene, std::size_t bi, const std::string& problem) {
+  throw scene::SceneError(scene.source.string(), "/bodies/" + std::to_string(bi) + "/geometry", problem);
+}
+
 }  // namespace
+
+TetMesh placed_mesh(const scene::Scene& scene, std::size_t bi) {
+  const scene::Body& body = scene.bodies[bi];
+  TetMesh mesh;
+  try {
+    mesh = mesh_for(body);
+  } catch (const geometry::GeometryError& e) {
+    body_error(scene, bi, e.what());
+  }
+  const auto kind = body.geometry.kind;
+  if (body.geometry.jitter > 0.0 &&
+      (kind == scene::Geometry::Kind::box || kind == scene::Geometry::Kind::sphere ||
+       kind == scene::Geometry::Kind::cylinder))
+    geometry::jitter_vertices(mesh, body.geometry.jitter, static_cast<std::uint64_t>(body.geometry.seed));
+  for (Vec3& v : mesh.vertices) v = body.transform.rotation * (body.transform.scale * v) + body.transform.translation;
+  if (mesh.tets.empty()) body_error(scene, bi, "the mesh has no tetrahedra (got 0; expected at least one)");
+  // Degenerate placement (scale 1e300, radius 1e-300 ...): every coordinate finite and within
+  // kMaxCoordinate, every tet with a positive, normal (not subnormal) volume.
+  for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
+    if (!(mesh.vertices[v].cwiseAbs().maxCoeff() <= scene::kMaxCoordinate)) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "(%.3g, %.3g, %.3g)", mesh.vertices[v].x(), mesh.vertices[v].y(), mesh.vertices[v].z());
+      body_error(scene, bi, "vertex " + std::to_string(v) + " out of range after the transform (got " + buf +
+                                " m; expected finite coordinates within 1e9 m)");
+    }
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    const double vol = geometry::tet_volume(mesh, t);
+    if (!(vol >= std::numeric_limits<double>::min()) || !std::isfinite(vol)) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.3g", vol);
+      body_error(scene, bi, "tetrahedron " + std::to_string(t) + " has no usable volume after the transform (got " + buf +
+                                " m^3; expected a positive, representable volume: check size, scale and edge_length)");
+    }
+  }
+  std::vector<Vec3> centers(mesh.tets.size());
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) centers[t] = geometry::tet_barycenter(mesh, t);
+  geometry::reorder_tets(mesh, geometry::morton_order(centers));
+  return mesh;
+}
 
 void add_bodies(const scene::Scene& scene, WorldState& w) {
   const bool fem = scene.solver != scene::Solver::peridynamics;
   auto& p = w.particles;
   for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi) {
     const scene::Body& body = scene.bodies[bi];
-    TetMesh mesh = mesh_for(body);
-    const auto kind = body.geometry.kind;
-    if (body.geometry.jitter > 0.0 &&
-        (kind == scene::Geometry::Kind::box || kind == scene::Geometry::Kind::sphere ||
-         kind == scene::Geometry::Kind::cylinder))
-      geometry::jitter_vertices(mesh, body.geometry.jitter, static_cast<std::uint64_t>(body.geometry.seed));
-    for (Vec3& v : mesh.vertices) v = body.transform.rotation * (body.transform.scale * v) + body.transform.translation;
-    if (mesh.tets.empty()) throw geometry::GeometryError("body '" + body.name + "': its mesh has no tetrahedra");
-    std::vector<Vec3> centers(mesh.tets.size());
-    for (std::size_t t = 0; t < mesh.tets.size(); ++t) centers[t] = geometry::tet_barycenter(mesh, t);
-    geometry::reorder_tets(mesh, geometry::morton_order(centers));
+    TetMesh mesh = placed_mesh(scene, bi);
 
     BodyInfo info;
     info.name = body.name;

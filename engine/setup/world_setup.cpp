@@ -1,5 +1,8 @@
 #include "setup/world_setup.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include "geometry/geometry.hpp"
 #include "systems/parallel.hpp"
 #include "systems/systems.hpp"
@@ -21,6 +24,38 @@ void resolve_settings(const scene::Scene& scene, StepSettings& s) {
   s.mesh_output = scene.output.obj || scene.output.surface_ply || scene.output.tets_vtu;
 }
 
+// The instability bound of kick_end (StepSettings::max_speed): no free particle of a healthy run moves
+// faster than every speed the scene can put into it, and elastic waves carry momentum at most at the
+// wave speed c = sqrt((κ + 4μ/3)/ρ) (a particle's own speed stays far below it: σ/(ρc)). The sum of
+// the fastest wave speed and every prescribed speed (initial, boundary conditions — a displacement
+// over its ramp, or over one step without one —, colliders and projectiles including their spin at
+// the scene's extent, gravity over the duration) is a generous upper bound; kMaxSpeedFactor = 10
+// leaves room above it. A blow-up grows exponentially, so it crosses the bound within a few steps.
+constexpr double kMaxSpeedFactor = 10.0;
+
+double max_speed(const scene::Scene& scene, const WorldState& w) {
+  double wave = 0.0;
+  for (const auto& m : scene.materials) {
+    // Anisotropy scales the stiffness by up to the largest |G| entry squared.
+    const double g = std::max(1.0, m.anisotropy.cwiseAbs().maxCoeff());
+    wave = std::max(wave, g * std::sqrt((m.bulk_modulus + 4.0 / 3.0 * m.shear_modulus) / m.density));
+  }
+  Vec3 lo = Vec3::Constant(kInfinity), hi = Vec3::Constant(-kInfinity);
+  for (const Vec3& x : w.particles.reference_position) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+  double extent = w.particles.count() ? (hi - lo).norm() : 0.0;
+  for (const auto& c : scene.colliders) extent = std::max(extent, c.half_extents.norm() + c.radius);
+  double speed = wave + scene.gravity.norm() * (scene.time.duration + scene.time.dt);
+  for (const auto& b : scene.bodies) speed += b.velocity.norm() + b.angular_velocity.norm() * extent;
+  for (const auto& bc : scene.boundary_conditions) {
+    const double over = std::max(bc.window.ramp, scene.time.dt);
+    speed += bc.velocity.norm() + bc.angular_velocity.norm() * extent + bc.displacement.norm() / over +
+             std::abs(bc.rotation_angle) * extent / over;
+  }
+  for (const auto& c : scene.colliders) speed += c.velocity.norm() + c.angular_velocity.norm() * extent;
+  for (const auto& pr : scene.projectiles) speed += pr.velocity.norm() + pr.angular_velocity.norm() * pr.radius;
+  return kMaxSpeedFactor * speed;
+}
+
 }  // namespace
 
 std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Scheduler& scheduler) {
@@ -37,12 +72,15 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   // FEM mode (components/fem.hpp): the particles are the mesh vertices; elastic materials only.
   const bool fem = scene.solver != scene::Solver::peridynamics;
   if (fem && (w.any_plastic || w.any_fracture))
-    throw std::invalid_argument("model/solver: the FEM reference solver is elastic only; this scene has a material "
-                                "with a finite yield_energy or critical_stretch (use solver 'peridynamics')");
+    throw scene::SceneError(scene.source.string(), "/model/solver",
+                            "the FEM reference solver is elastic only (got a material with a finite yield_energy or "
+                            "critical_stretch; expected solver 'peridynamics')");
   if (fem && !scene.cracks.empty())
-    throw std::invalid_argument("model/solver: initial cracks need solver 'peridynamics'");
+    throw scene::SceneError(scene.source.string(), "/model/solver",
+                            "initial cracks need the peridynamic solver (got an FEM solver; expected 'peridynamics')");
 
   add_bodies(scene, w);
+  w.settings.max_speed = max_speed(scene, w);
   allocate_step_state(w);
   resolve_boundary_conditions(scene.boundary_conditions, w);
   auto& p = w.particles;

@@ -19,6 +19,9 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
 
 // bodies.cpp: bodies, particles and their mesh (appends to w.particles, w.mesh, w.bodies, w.model.horizon).
 void add_bodies(const scene::Scene& scene, WorldState& w);
+// bodies.cpp: body `index`'s tet mesh, transformed and in Morton order, checked (finite coordinates
+// within kMaxCoordinate, positive volumes). Throws SceneError naming /bodies/<index>/geometry.
+TetMesh placed_mesh(const scene::Scene& scene, std::size_t index);
 // bodies.cpp: per-particle step state (forces, dilatation, damage ...) sized to the particle count.
 void allocate_step_state(WorldState& w);
 // regions.cpp: w.boundary from the scene's boundary conditions.

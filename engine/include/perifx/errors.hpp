@@ -1,10 +1,13 @@
 // perifx public API: every error a host can catch. All derive from perifx::Error (a
 // std::runtime_error) whose what() is one line naming the file, the JSON pointer or line, the value
 // and what was expected, so a host can show it unchanged. The CLI maps them to exit codes
-// (README: 2 invalid scene or mesh, 3 output not writable).
+// (README: 2 invalid scene or mesh, 3 output not writable, 6 unstable simulation).
 #pragma once
+#include <cstddef>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace perifx {
 
@@ -48,5 +51,22 @@ class IoError : public Error {
   using Error::Error;
 };
 }  // namespace io
+
+// The simulation blew up: World::step found a particle whose position or velocity is not finite, or
+// whose speed is beyond the world's bound (StepSettings::max_speed: 10 × the fastest material wave
+// speed plus every prescribed, initial, collider, projectile and gravity speed). Thrown after the
+// step that produced it, before any frame of that state is written. what() is one line:
+//   "<scene file>: /bodies/<k>: <problem> (got <value>; expected <what>); hint: <advice>"
+class InstabilityError : public Error {
+ public:
+  InstabilityError(std::string message, std::uint64_t step, std::size_t particle)
+      : Error(std::move(message)), step_(step), particle_(particle) {}
+  std::uint64_t step() const { return step_; }          // the step that produced the bad state
+  std::size_t particle() const { return particle_; }    // the lowest-index bad particle
+
+ private:
+  std::uint64_t step_ = 0;
+  std::size_t particle_ = 0;
+};
 
 }  // namespace perifx

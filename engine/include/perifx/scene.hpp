@@ -187,6 +187,16 @@ struct Scene {
 Scene load_scene_file(const std::filesystem::path& file);
 // Same from text; `file` names the source in messages and resolves relative mesh paths.
 Scene load_scene_text(const std::string& text, const std::filesystem::path& file);
+// Limits that keep every run finite (README "Limits"): at most kMaxSteps steps and kMaxFrames frames,
+// a frame interval of at least one step (frame_rate <= 1/dt), speeds below kMaxSpeed and coordinates
+// within kMaxCoordinate. check_time throws SceneError naming /time/dt or /time/frame_rate; `frames`,
+// when non-zero, replaces duration × frame_rate (perifx run --frames).
+inline constexpr double kMaxSteps = 1e9;
+inline constexpr double kMaxFrames = 1e6;
+inline constexpr double kMaxSpeed = 3e8;        // m/s
+inline constexpr double kMaxCoordinate = 1e9;   // m
+inline constexpr double kMaxWaveSpeed = 1e6;    // m/s, sqrt((κ + 4μ/3)/ρ) of a material
+void check_time(const Scene& scene, std::uint64_t frames = 0);
 // The scene format reference (markdown), generated from the spec.
 std::string scene_format_markdown();
 

@@ -85,7 +85,9 @@ class World {
   World& operator=(World&&) noexcept;
   ~World();
 
-  void step();                     // advance by one time step dt
+  // Advance by one time step dt. Throws InstabilityError (perifx/errors.hpp) when the step left a
+  // particle non-finite or running away; the world's state is then not usable.
+  void step();
   void step(std::uint64_t count);  // advance by `count` steps
 
   double time() const;
@@ -139,6 +141,7 @@ class World {
   WorldState& state_mutable();      // tests only: invalidates cached derived fields
 
  private:
+  [[noreturn]] void throw_instability() const;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -1,0 +1,108 @@
+#include "setup/preflight.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "geometry/geometry.hpp"
+#include "setup/world_setup.hpp"
+
+namespace perifx::setup {
+namespace {
+
+double mem_available() {
+  std::ifstream in("/proc/meminfo");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("MemAvailable:", 0) != 0) continue;
+    std::istringstream fields(line.substr(13));
+    double kib = -1.0;
+    fields >> kib;
+    return kib >= 0.0 ? kib * 1024.0 : -1.0;
+  }
+  return -1.0;
+}
+
+// Tets the structured mesher makes for a primitive (6 per cube cell, curved shapes filling their
+// share of the bounding box), from the cell size alone; 0 for meshes read from files.
+double primitive_tets(const scene::Body& body) {
+  const auto& g = body.geometry;
+  auto cells = [&](const Vec3& size, double longest) {
+    const double cell = g.edge_length > 0.0 ? g.edge_length : longest / (g.resolution > 0 ? g.resolution : 20);
+    return std::ceil(size.x() / cell) * std::ceil(size.y() / cell) * std::ceil(size.z() / cell);
+  };
+  switch (g.kind) {
+    case scene::Geometry::Kind::box: return 6.0 * cells(g.size, g.size.maxCoeff());
+    case scene::Geometry::Kind::sphere: return kPi * cells(Vec3::Constant(2 * g.radius), 2 * g.radius);
+    case scene::Geometry::Kind::cylinder: {
+      const double d = 2 * g.radius, longest = std::max(d, g.height);
+      return 6.0 * kPi / 4.0 * cells(Vec3(d, d, g.height), longest);
+    }
+    default: return 0.0;
+  }
+}
+
+double per_particle_bytes(double bonds_per_particle) {
+  return bonds_per_particle * kBytesPerBond + kBytesPerParticle + kBytesPerTet;
+}
+
+[[noreturn]] void refuse(const scene::Scene& scene, const MemoryEstimate& e, const std::string& how) {
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "not enough memory: %s (got an estimated peak of %s for %.3g particles and %.3g bonds; expected at "
+                "most the %s available; use coarser meshes, or perifx run --force)",
+                how.c_str(), format_bytes(e.bytes).c_str(), double(e.particles), e.bonds,
+                format_bytes(e.available).c_str());
+  throw MemoryError(scene.source.string() + ": /bodies: " + buf);
+}
+
+}  // namespace
+
+std::string format_bytes(double b) {
+  const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
+  int u = 0;
+  while (b >= 1024.0 && u < 6) b /= 1024.0, ++u;
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.3g %s", b, units[u]);
+  return buf;
+}
+
+MemoryEstimate preflight(const scene::Scene& scene, bool enforce) {
+  MemoryEstimate e;
+  e.available = mem_available();
+  const bool limit = enforce && e.available > 0.0;
+  // 1. Primitives, from their cell counts: a resolution-300 box is refused before meshing. Bonds per
+  //    particle are at least the ~40 a horizon of 1.45 λ holds in a structured mesh.
+  double tets = 0.0;
+  for (const auto& body : scene.bodies) tets += primitive_tets(body);
+  const double early = kPeakFactor * tets * per_particle_bytes(40.0);
+  if (limit && early > e.available) {
+    e.particles = static_cast<std::size_t>(std::min(tets, 1e18));
+    e.bonds = 40.0 * tets;
+    e.bytes = early;
+    refuse(scene, e, "the primitives' meshes alone are too fine");
+  }
+  // 2. Every body's mesh as setup builds it; bonds from the horizon sphere's volume over the mean
+  //    particle volume (capped by the body's particle count).
+  const bool fem = scene.solver != scene::Solver::peridynamics;
+  for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi) {
+    const TetMesh mesh = placed_mesh(scene, bi);
+    const scene::Body& body = scene.bodies[bi];
+    const double n = double(fem ? mesh.vertices.size() : mesh.tets.size());
+    double volume = 0.0;
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t) volume += geometry::tet_volume(mesh, t);
+    const double lambda = geometry::mean_edge_length(mesh);
+    const double horizon = body.horizon_length > 0.0 ? body.horizon_length : body.horizon_factor * lambda;
+    const double per = fem ? 0.0 : std::min(n - 1.0, 4.0 / 3.0 * kPi * std::pow(horizon, 3) / (volume / n));
+    e.particles += static_cast<std::size_t>(n);
+    e.bonds += n * per;
+    e.bytes += kPeakFactor * (n * (kBytesPerParticle + per * kBytesPerBond) + double(mesh.tets.size()) * kBytesPerTet);
+  }
+  e.meshed = true;
+  if (limit && e.bytes > e.available) refuse(scene, e, "the meshes are too fine");
+  return e;
+}
+
+}  // namespace perifx::setup
