@@ -1,7 +1,7 @@
 // perifx public API: every error a host can catch. All derive from perifx::Error (a
 // std::runtime_error) whose what() is one line naming the file, the JSON pointer or line, the value
 // and what was expected, so a host can show it unchanged. The CLI maps them to exit codes
-// (README: 2 invalid scene or mesh, 3 output not writable, 6 unstable simulation).
+// (README: 2 invalid scene or mesh, 3 output not writable, 7 unstable simulation, 8 not enough memory).
 #pragma once
 #include <cstddef>
 #include <cstdint>

@@ -120,10 +120,11 @@ TEST_CASE("cli: a time step above the stable limit is refused with the limit in 
   std::string text = kScene;
   text.replace(text.find("1e-4"), 4, "5e-2");
   text.replace(text.find("0.02,"), 5, "1.0, ");
+  text.replace(text.find("\"frame_rate\": 200"), 18, "\"frame_rate\": 10");  // frames at least dt apart
   const fs::path scene = write(dir, "scene.json", text);
   const auto r = run_cli("run " + scene.string() + " --quiet --out " + (dir / "out").string());
   CHECK(r.code == 4);
-  CHECK(r.output.find("exceeds the stable explicit step") != std::string::npos);
+  CHECK(r.output.find("above the stable explicit limit") != std::string::npos);
   fs::remove_all(dir);
 }
 

@@ -403,7 +403,7 @@ TEST_CASE("read_tetgen: errors name the file and line") {
     write_file(dir.path / "short.node", "3 3 0 0\n1 0 0 0\n2 1 0 0\n");
     write_file(dir.path / "short.ele", "0 4 0\n");
     std::string msg = error_of([&] { read_tetgen(dir.path / "short.node"); });
-    CHECK(msg.find("short.node:3:") != std::string::npos);
+    CHECK(msg.find("short.node:1:") != std::string::npos);
     write_file(dir.path / "flat.node", "3 2 0 0\n1 0 0\n2 1 0\n3 0 1\n");
     write_file(dir.path / "flat.ele", "0 4 0\n");
     msg = error_of([&] { read_tetgen(dir.path / "flat.node"); });

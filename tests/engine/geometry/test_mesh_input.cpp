@@ -356,7 +356,7 @@ TEST_CASE("mesh_surface: a missing tetgen program is reported") {
 namespace {
 
 std::string scene_with(const std::string& geometry) {
-  return R"({"name": "t", "time": {"dt": 1e-4, "duration": 0.01},
+  return R"({"name": "t", "time": {"dt": 1e-4, "duration": 0.1},
     "materials": {"m": {"youngs_modulus": 1e6, "poisson_ratio": 0.3}},
     "bodies": [{"material": "m", "geometry": )" + geometry + "}]}";
 }

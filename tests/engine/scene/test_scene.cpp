@@ -309,7 +309,7 @@ TEST_CASE("scene: malformed JSON names line and column") {
 TEST_CASE("scene: wrong types") {
   Json j = minimal();
   j["materials"]["steel"]["density"] = "abc";
-  CHECK(error_in(j) == "cases.json: /materials/steel/density: wrong type (got \"abc\"; expected a number > 0)");
+  CHECK(error_in(j) == "cases.json: /materials/steel/density: wrong type (got \"abc\"; expected a number in [0.001, 1000000])");
   j = minimal();
   j["gravity"] = Json::array({0, -9.81});
   CHECK(error_in(j) == "cases.json: /gravity: wrong type (got [0,-9.81]; expected an array of 3 numbers)");
@@ -318,7 +318,7 @@ TEST_CASE("scene: wrong types") {
   CHECK(error_in(j) == "cases.json: /threads: wrong type (got 2.5; expected an integer >= 0)");
   j = minimal();
   j["bodies"][0]["horizon"] = true;
-  CHECK(error_in(j) == "cases.json: /bodies/0/horizon: wrong type (got true; expected a number > 0 or an "
+  CHECK(error_in(j) == "cases.json: /bodies/0/horizon: wrong type (got true; expected a number in (0, 20] or an "
                        "object with either 'factor' or 'length')");
   j = minimal();
   j["bodies"][0]["geometry"]["type"] = "cube";
@@ -330,7 +330,7 @@ TEST_CASE("scene: wrong types") {
 TEST_CASE("scene: out of range") {
   Json j = minimal();
   j["materials"]["steel"]["density"] = -5;
-  CHECK(error_in(j) == "cases.json: /materials/steel/density: out of range (got -5; expected a number > 0)");
+  CHECK(error_in(j) == "cases.json: /materials/steel/density: out of range (got -5; expected a number in [0.001, 1000000])");
   j = minimal();
   j["materials"]["steel"]["poisson_ratio"] = 0.5;
   CHECK(error_in(j) == "cases.json: /materials/steel/poisson_ratio: out of range (got 0.5; expected a number "
@@ -470,7 +470,7 @@ TEST_CASE("scene: SceneError keeps its parts") {
   } catch (const SceneError& e) {
     CHECK(e.file() == "parts.json");
     CHECK(e.pointer() == "/materials/steel/density");
-    CHECK(e.message() == "out of range (got -5; expected a number > 0)");
+    CHECK(e.message() == "out of range (got -5; expected a number in [0.001, 1000000])");
   }
 }
 
