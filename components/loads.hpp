@@ -12,7 +12,7 @@ namespace perifx {
 
 // The boundary faces of the reference tet mesh, as patches owned by particles, CSR by particle.
 // Peridynamics: a boundary face is one patch of its tet's particle. FEM (particles = vertices): each
-// boundary face gives one patch per corner, a third of its area. Normals are outward, reference.
+// face gives one patch per corner, a third of its area; a traction with a depth adds layer shares.
 struct SurfacePatches {
   std::vector<std::uint32_t> offsets;  // particle count + 1; patches of i: [offsets[i], offsets[i+1])
   std::vector<double> area;            // m²

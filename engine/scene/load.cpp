@@ -415,6 +415,7 @@ class Converter {
     switch (out.kind) {
       case K::traction:
         out.magnitude = num(l["traction"]);
+        out.radius = num(l["depth"]);  // Load::radius holds a traction's layer depth
         out.along_normal = !l.contains("direction");
         if (!out.along_normal) out.direction = vec(l["direction"]).normalized();
         break;

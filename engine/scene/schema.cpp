@@ -195,6 +195,11 @@ Key build_spec() {
       number("end", "End time, s; after `start`. \"inf\" = never.").gt(0).or_inf().def("inf"),
       number("traction", "Stress, Pa: along `direction`, or along the outward normal (positive pulls, "
                          "negative presses) when `direction` is omitted.").req().only({"traction"}),
+      number("depth", "Spread each face's force over the particles of its body up to this depth below it (each "
+                      "to its nearest face, shared by volume), m; 0 = on the face's own particle. Peridynamic "
+                      "practice applies a boundary traction in a layer about one horizon deep: on the outermost "
+                      "particles alone, whose families the surface cuts, a large traction tears that layer off.")
+          .ge(0).def(0).only({"traction"}),
       vec3("direction", "`traction`: its direction (normalized on load); omitted = each face's outward "
                         "normal. `noise`: the drift direction (normalized), default [1, 0, 0].")
           .not_zero().only({"traction", "noise"}),
