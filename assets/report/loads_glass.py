@@ -2,7 +2,7 @@
 """Crack-tip speed of the glass traction scene (assets/scenes/glass_traction.json) from its damage field.
 
     python3 assets/report/loads_glass.py --critical-stretch          # s_c from G_c (the scene's value)
-    python3 assets/report/loads_glass.py out/glass_traction [--png assets/report/images/loads_crack_speed.png]
+    python3 assets/report/loads_glass.py out/glass_traction [--png assets/report/images/loads_crack_speed.png] [--title T]
 
 Reads every particles.NNNN.ply of the run (fields damage and displacement; reference = position -
 displacement). A particle counts as cracked when its damage is at least 0.35 (a particle whose bonds to
@@ -144,12 +144,33 @@ def main():
         ax[1].axhline(cr, color="gray", ls=":", label="Rayleigh speed c_R")
         ax[1].set_xlabel("time (µs)")
         ax[1].set_ylabel("tip speed (m/s)")
-        ax[1].legend(fontsize=8, loc="upper left")
+        ax[1].legend(fontsize=8, loc="upper right")
         ax[1].grid(alpha=0.3)
-        fig.suptitle("Soda-lime glass plate, 12 MPa traction on the long edges")
+        title = sys.argv[sys.argv.index("--title") + 1] if "--title" in sys.argv else "Soda-lime glass plate under traction"
+        fig.suptitle(title)
         fig.tight_layout()
         fig.savefig(png, dpi=110)
         print(f"wrote {png}")
+    if "--map" in sys.argv:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        out = sys.argv[sys.argv.index("--map") + 1]
+        frames = sorted(f for f in os.listdir(run) if re.fullmatch(r"particles\.\d+\.ply", f))
+        picks = [frames[len(frames) // 4], frames[len(frames) // 2], frames[-1]]
+        fig, axes = plt.subplots(1, 3, figsize=(12, 2.6))
+        for ax, name in zip(axes, picks):
+            p = read_ply(os.path.join(run, name))
+            x = [(a - u) * 1e3 for a, u in zip(p["x"], p["displacement_x"])]
+            y = [(a - u) * 1e3 for a, u in zip(p["y"], p["displacement_y"])]
+            sc = ax.scatter(x, y, c=p["damage"], s=0.6, cmap="inferno", vmin=0, vmax=0.6)
+            ax.set_aspect("equal")
+            ax.set_title(f"t = {int(name.split('.')[1])} µs (damage)", fontsize=9)
+            ax.set_xticks([-50, 0, 50])
+            ax.set_yticks([-20, 0, 20])
+        fig.colorbar(sc, ax=axes, shrink=0.8)
+        fig.savefig(out, dpi=110, bbox_inches="tight")
+        print(f"wrote {out}")
 
 
 if __name__ == "__main__":
