@@ -117,6 +117,13 @@ def main():
     for r in rows:
         print(f"| {r['time'] * 1e6:.0f} | {r['length'] * 1e3:.1f} | ({r['tip'][0] * 1e3:.1f}, {r['tip'][1] * 1e3:.1f}) | "
               f"{r['speed']:.0f} | {r['speed'] / cr:.2f} | {', '.join(map(str, r['branches']))} |")
+    run_rows = [r for r in rows if 0.003 < r["length"] < 0.045]
+    if len(run_rows) >= 2:
+        ts, ls = [r["time"] for r in run_rows], [r["length"] for r in run_rows]
+        mt, ml = sum(ts) / len(ts), sum(ls) / len(ls)
+        slope = sum((t - mt) * (l - ml) for t, l in zip(ts, ls)) / sum((t - mt) ** 2 for t in ts)
+        print(f"least-squares slope of a(t) while 3 mm < a < 45 mm ({ts[0] * 1e6:.0f}-{ts[-1] * 1e6:.0f} µs): "
+              f"{slope:.0f} m/s ({slope / cr:.2f} c_R)")
     moving = [r["speed"] for r in rows if r["length"] > 0.003 and r["length"] < 0.045]
     if moving:
         print(f"mean tip speed while the crack runs (3 mm < a < 45 mm): {sum(moving) / len(moving):.0f} m/s "
