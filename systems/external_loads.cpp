@@ -10,13 +10,15 @@
 // for in velocity Verlet, [t − dt/2, t + dt/2] with t = (step + 1) dt (at setup: [0, dt/2]), so a
 // load's impulse is exact for any dt and its ramp is followed exactly (the mean of a linear ramp over
 // a symmetric interval is its midpoint value).
-// Reads: time, position (surface points, noise), velocity (wind).   Writes: external_force.
+// Reads: time, position (surface points, noise), velocity (wind); nothing without scene loads.
+// Writes: external_force.
 // Each load is one pass over its own particle list, in scene order, every particle written by one
 // task: the sum has a fixed order for any thread count. No allocation: lists are set at setup
 // (engine/setup/loads.cpp).
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <utility>
 
 #include "parallel.hpp"
 #include "systems.hpp"
@@ -221,8 +223,12 @@ void compute_external_force(WorldState& w, double t, double a, double b) {
 }
 
 SystemDecl external_load_system(WorldState& w) {
+  // Gravity alone reads nothing that changes during a step, so the scheduler runs it alongside the
+  // peridynamic chain; scene loads read the clock, the drifted positions and the half-step velocities.
+  std::vector<Component> reads;
+  if (!w.loads.loads.empty()) reads = {Component::time, Component::position, Component::velocity};
   return {"external_loads",
-          {Component::time, Component::position, Component::velocity},
+          std::move(reads),
           {Component::external_force},
           [&w] {
             // The force at the end of the step, t = (step + 1) dt, standing for [t − dt/2, t + dt/2];

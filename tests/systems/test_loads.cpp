@@ -312,7 +312,7 @@ TEST_CASE("loads: bit-identical for any thread count") {
   }
 }
 
-TEST_CASE("loads: noise is smooth, bounded and seeded; wind pushes only the faces it meets") {
+TEST_CASE("loads: noise is bounded and seeded, and wind pushes only the faces it meets") {
   // Noise: the external force of a noise load on a body at rest, sampled at two seeds.
   auto sc = test::box_scene(Vec3(0.2, 0.2, 0.2), 0.02, 1e6, 6e5);
   scene::Load noise;
@@ -343,6 +343,8 @@ TEST_CASE("loads: noise is smooth, bounded and seeded; wind pushes only the face
   wind.drag = 2.0;
   plate.loads = {wind};
   World p(plate);
+  // With loads the system reads the moving state, so it runs after the drift (gravity alone reads nothing).
+  CHECK(p.schedule().find("external_loads  reads time,position,velocity  writes external_force") != std::string::npos);
   const Vec3 f = total_external_force(p);
   CHECK(f.z() == doctest::Approx(-2.0 * 0.01 * 5.0).epsilon(1e-12));
   CHECK(std::abs(f.x()) + std::abs(f.y()) < 1e-15);
@@ -370,4 +372,16 @@ TEST_CASE("loads: a traction with a depth keeps its total force and moves it bel
   CHECK(deepest_1 < 0.1 - 0.015);
   CHECK(deepest_1 > 0.1 - 0.021);
   CHECK(loaded_1 > 2 * loaded_0);
+}
+
+TEST_CASE("loads: in FEM mode a traction's faces are shared by their vertices and keep the total force") {
+  auto sc = test::box_scene(Vec3(0.2, 0.04, 0.04), 0.01, 1e6, 6e5);
+  sc.solver = scene::Solver::fem_linear;
+  sc.loads = {traction_on_end(0.1, 1, 1e3)};
+  World w(sc);
+  const Vec3 f = total_external_force(w);
+  CHECK(f.x() == doctest::Approx(1e3 * 0.0016).epsilon(1e-12));
+  CHECK(std::abs(f.y()) + std::abs(f.z()) < 1e-15);
+  for (std::size_t i = 0; i < w.particle_count(); ++i)  // only vertices on the end face carry it
+    if (w.state().state.external_force[i].norm() > 0) CHECK(w.reference_positions()[i].x() == doctest::Approx(0.1));
 }
