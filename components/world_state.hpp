@@ -14,6 +14,7 @@
 #include "components/contact.hpp"
 #include "components/embedded_mesh.hpp"
 #include "components/fem.hpp"
+#include "components/loads.hpp"
 #include "components/particles.hpp"
 #include "components/tet_mesh.hpp"
 #include "perifx/scene.hpp"  // value types only (Material, Collider, BoundaryCondition ...)
@@ -93,6 +94,8 @@ struct WorldState {
   FemModel fem;                   // FEM mode only (systems/fem_setup.cpp, fem_force.cpp)
   std::vector<BodyInfo> bodies;
   BoundaryConditionSet boundary;
+  SurfacePatches surface;         // boundary faces of the reference mesh (surface loads)
+  LoadSet loads;                  // external loads beyond gravity (systems/external_loads.cpp)
   DerivedFields derived;
   ContactState contact;           // particle–particle contact (systems/contact.cpp)
   ProjectileSet projectiles;      // rigid projectiles (systems/projectiles.cpp)
@@ -210,6 +213,13 @@ void for_each_array(W& w, F&& f) {
   f(K::other, "projectiles.torque", w.projectiles.torque);
   f(K::other, "boundary.constrained", w.boundary.constrained);
   for (auto& list : w.boundary.particles) f(K::other, "boundary.particles", list);
+  f(K::other, "surface.offsets", w.surface.offsets);
+  f(K::other, "surface.area", w.surface.area);
+  f(K::other, "surface.normal", w.surface.normal);
+  f(K::other, "surface.offset", w.surface.offset);
+  for (auto& list : w.loads.particles) f(K::other, "loads.particles", list);
+  for (auto& list : w.loads.patch_offsets) f(K::other, "loads.patch_offsets", list);
+  for (auto& list : w.loads.patches) f(K::other, "loads.patches", list);
   f(K::other, "derived.displacement", w.derived.displacement);
   f(K::other, "derived.plastic_strain", w.derived.plastic_strain);
   f(K::other, "derived.alive_bonds", w.derived.alive_bonds);

@@ -2,7 +2,8 @@
 // before the drift:
 //   kick_begin → boundary_conditions → drift → (projectile_drift) → colliders → (contact)
 //   → dilatation → bond_pass (plasticity + elastic force + fracture test + damage, one bond pass)
-//   external_loads (independent of the chain above) → (projectile_contact) → kick_end
+//   external_loads (gravity + scene loads; reads the drifted positions and the half-step velocity)
+//   → (projectile_contact) → kick_end
 //   → (fracture_threshold) → (crack_faces → mesh_split) → (mesh_vertices)     (embedded mesh, §5.2)
 // FEM mode replaces dilatation + bond_pass by fem_force. The scheduler derives the actual graph from
 // each system's declared reads and writes; this order only settles who comes first on shared data.

@@ -43,6 +43,9 @@ void compute_internal_force(const WorldState& world, const std::vector<Vec3>& y,
 double elastic_energy(const WorldState& world);
 void compute_virial_stress(const WorldState& world, const std::vector<Vec3>& y,
                            const std::vector<double>& coupling, std::vector<Mat3>& stress);
+// external_loads.cpp: gravity plus the scene's loads at time t, as the mean force over [a, b] (the
+// time this force stands for in velocity Verlet), into world.state.external_force.
+void compute_external_force(WorldState& world, double t, double a, double b);
 // plasticity.cpp: Eq 11–16 consistent return, in place on bonds.plastic_extension (and its mirror
 // copy), for positions y and the dilatations in world.state.
 void update_plastic_extension(WorldState& world, const std::vector<Vec3>& y);

@@ -184,6 +184,8 @@ class Converter {
     const Json& conditions = j["boundary_conditions"];
     for (std::size_t i = 0; i < conditions.size(); ++i)
       s.boundary_conditions.push_back(condition(conditions[i], "/boundary_conditions/" + std::to_string(i)));
+    const Json& loads = j["loads"];
+    for (std::size_t i = 0; i < loads.size(); ++i) s.loads.push_back(load(loads[i], "/loads/" + std::to_string(i)));
     const Json& colliders = j["colliders"];
     for (std::size_t i = 0; i < colliders.size(); ++i) s.colliders.push_back(collider(colliders[i]));
     const Json& ct = j["contact"];
@@ -440,6 +442,79 @@ class Converter {
         out.rotation_axis = vec(c["rotation"]["axis"]).normalized();
         out.rotation_angle = num(c["rotation"]["degrees"]) * kPi / 180.0;
       }
+    }
+    return out;
+  }
+
+  Load load(const Json& l, const std::string& p) const {
+    Load out;
+    const std::string type = l["type"].get<std::string>();
+    using K = Load::Kind;
+    out.kind = type == "traction"         ? K::traction
+               : type == "body_force"     ? K::body_force
+               : type == "blast"          ? K::blast
+               : type == "radial_impulse" ? K::radial_impulse
+               : type == "directional"    ? K::directional
+                                          : K::noise;
+    if (l.contains("region")) out.region = region(l["region"], p + "/region");
+    if (l.contains("body")) {
+      const int b = lookup(l["body"], body_names_, "body", p + "/body");
+      if (out.region.body >= 0 && out.region.body != b)
+        fail(p + "/body", "contradicts region.body (got " + show(l["body"]) + "; expected the body of the region, " +
+                              show(l["region"]["body"]) + ", or no `body`)");
+      out.region.body = b;
+    }
+    out.window = {num(l["start"]), num(l["ramp"]), num(l["end"])};
+    if (!(out.window.end > out.window.start))
+      fail(p + "/end", "ends before it starts (got " + show(l["end"]) + "; expected a time after start = " +
+                           show(l["start"]) + ")");
+    switch (out.kind) {
+      case K::traction:
+        out.magnitude = num(l["traction"]);
+        out.radius = num(l["depth"]);  // Load::radius holds a traction's layer depth
+        out.along_normal = !l.contains("direction");
+        if (!out.along_normal) out.direction = vec(l["direction"]).normalized();
+        break;
+      case K::body_force:
+        if (l.contains("acceleration") == l.contains("force_density"))
+          fail(p, "body force needs exactly one of 'acceleration' (m/s²) and 'force_density' (N/m³) (got " +
+                      std::string(l.contains("acceleration") ? "both" : "neither") + ")");
+        out.per_volume = l.contains("force_density");
+        out.vector = vec(out.per_volume ? l["force_density"] : l["acceleration"]);
+        break;
+      case K::blast:
+      case K::radial_impulse:
+        out.center = vec(l["center"]);
+        out.radius = num(l["radius"]);
+        out.falloff = num(l["falloff"]);
+        out.cutoff = num(l["cutoff"]);
+        out.duration = num(l["duration"]);
+        out.front_speed = num(l["front_speed"]);
+        if (out.kind == K::blast) {
+          out.magnitude = num(l["pressure"]);
+          if (!(out.duration > 0.0))
+            fail(p + "/duration", "a blast needs a pulse length (got " + show(l.value("duration", Json(0))) +
+                                      "; expected a duration > 0 s, or use radial_impulse for an instantaneous one)");
+        } else {
+          out.magnitude = num(l["impulse"]);
+        }
+        break;
+      case K::directional:
+        out.vector = vec(l["velocity"]);
+        out.drag = num(l["drag"]);
+        out.quadratic_drag = num(l["quadratic_drag"]);
+        if (!(out.drag > 0.0 || out.quadratic_drag > 0.0))
+          fail(p + "/drag", "no drag (got drag = " + show(l["drag"]) + " and quadratic_drag = " +
+                                show(l["quadratic_drag"]) + "; expected at least one > 0)");
+        break;
+      case K::noise:
+        out.magnitude = num(l["amplitude"]);
+        out.per_volume = l["units"] == "force_density";
+        out.feature_size = num(l["feature_size"]);
+        out.speed = num(l["speed"]);
+        out.direction = l.contains("direction") ? Vec3(vec(l["direction"]).normalized()) : Vec3(Vec3::UnitX());
+        out.seed = l["seed"].get<std::uint64_t>();
+        break;
     }
     return out;
   }

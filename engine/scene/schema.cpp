@@ -59,6 +59,20 @@ Key rotation(std::string n, std::string d) {
                  number("degrees", "Angle about `axis`, degrees, right-handed.").req()});
 }
 
+Key region_key(std::string doc) {
+  return object("region", "region", std::move(doc), {
+      choice("type", {"all", "box", "sphere", "halfspace"}, "Region shape.").req(),
+      vec3("min", "Lower corner, m.").req().only({"box"}),
+      vec3("max", "Upper corner, m; greater than `min` in every component.").req().only({"box"}),
+      vec3("center", "Center, m.").req().only({"sphere"}),
+      number("radius", "Radius, m.").gt(0).req().only({"sphere"}),
+      vec3("point", "A point on the bounding plane, m.").req().only({"halfspace"}),
+      vec3("normal", "Normal (normalized on load); selects (x − point)·normal ≥ 0.")
+          .not_zero().req().only({"halfspace"}),
+      text("body", "Only particles of the body with this name; omitted = every body."),
+  });
+}
+
 const Json kZero = Json::array({0, 0, 0});
 const std::vector<std::string> kMeshers = {"box", "sphere", "cylinder", "surface"};  // take a resolution
 
@@ -141,18 +155,7 @@ Key build_spec() {
       choice("type", {"anchor", "velocity", "displacement"},
              "`anchor` holds particles at their reference positions; `velocity` and "
              "`displacement` prescribe them.").req(),
-      object("region", "region", "The particles it acts on, tested on reference positions "
-                                 "(after the body transform).", {
-          choice("type", {"all", "box", "sphere", "halfspace"}, "Region shape.").req(),
-          vec3("min", "Lower corner, m.").req().only({"box"}),
-          vec3("max", "Upper corner, m; greater than `min` in every component.").req().only({"box"}),
-          vec3("center", "Center, m.").req().only({"sphere"}),
-          number("radius", "Radius, m.").gt(0).req().only({"sphere"}),
-          vec3("point", "A point on the bounding plane, m.").req().only({"halfspace"}),
-          vec3("normal", "Normal (normalized on load); selects (x − point)·normal ≥ 0.")
-              .not_zero().req().only({"halfspace"}),
-          text("body", "Only particles of the body with this name; omitted = every body."),
-      }).req(),
+      region_key("The particles it acts on, tested on reference positions (after the body transform).").req(),
       number("start", "Start time, s.").ge(0).def(0),
       number("ramp", "Ramp-up duration after `start`, s.").ge(0).def(0),
       number("end", "Release time, s; after `start`. \"inf\" = never.").gt(0).or_inf().def("inf"),
@@ -163,6 +166,69 @@ Key build_spec() {
       vec3("displacement", "u = ramp·(displacement + (R − I)(x − center)), m.")
           .def(kZero).only({"displacement"}),
       rotation("rotation", "Rotation R about `center`; omitted = none.").only({"displacement"}),
+  }).def(Json::array());
+
+
+  const std::vector<std::string> kSurfaceLoads = {"traction", "blast", "radial_impulse", "directional"};
+  const std::vector<std::string> kBlasts = {"blast", "radial_impulse"};
+  Key load = nested("loads", Type::array, "load",
+      "External loads on top of gravity (systems/README.md §8.6). Each has the time window of the boundary "
+      "conditions (strength 0 before `start`, a linear ramp to 1 over `ramp` seconds, 1 until `end`); a step "
+      "applies the window's mean over the time its force stands for, so the impulse delivered is exact for "
+      "any `dt`. Surface loads (`traction`, `blast`, `radial_impulse`, `directional`) act on the boundary "
+      "faces of the bodies' tet meshes (in their reference orientation), each face on its tet's particle; "
+      "body loads (`body_force`, `noise`) on particles.", {
+      choice("type", {"traction", "body_force", "blast", "radial_impulse", "directional", "noise"},
+             "`traction`: a stress on the boundary faces in `region`. `body_force`: a force density or "
+             "acceleration. `blast` / `radial_impulse`: a pressure pulse from `center` on the faces that face "
+             "it, p = P·(radius/max(r, radius))^falloff·(1 − s/duration) for 0 ≤ s < duration, s = t − start − "
+             "r/front_speed, r the face's distance to `center`; `radial_impulse` gives the impulse per area I "
+             "at `radius` instead (P = 2I/duration; duration 0 delivers it at once). `directional`: wind; on "
+             "each face turned towards the relative wind u = velocity − v (particle velocity v), the force "
+             "(drag + quadratic_drag·|u|)·a·(−n·û)·u (a the face's area, n its outward normal). `noise`: a "
+             "seeded, smooth 3D vector field (value noise with quintic interpolation, each component in "
+             "[−amplitude, amplitude]) of cell size `feature_size`, drifting at `speed` along `direction`.").req(),
+      region_key("Surface loads: the boundary faces whose centroid is inside; body loads: the particles "
+                 "inside (reference positions, after the body transform). Omitted = everything."),
+      text("body", "Only the body with this name (besides any `region.body`); omitted = every body."),
+      number("start", "Start time, s (for `blast` / `radial_impulse`: the detonation).").ge(0).def(0),
+      number("ramp", "Ramp-up duration after `start`, s.").ge(0).def(0),
+      number("end", "End time, s; after `start`. \"inf\" = never.").gt(0).or_inf().def("inf"),
+      number("traction", "Stress, Pa: along `direction`, or along the outward normal (positive pulls, "
+                         "negative presses) when `direction` is omitted.").req().only({"traction"}),
+      number("depth", "Spread each face's force over the particles of its body up to this depth below it (each "
+                      "to its nearest face, shared by volume), m; 0 = on the face's own particle. Peridynamic "
+                      "practice applies a boundary traction in a layer about one horizon deep: on the outermost "
+                      "particles alone, whose families the surface cuts, a large traction tears that layer off.")
+          .ge(0).def(0).only({"traction"}),
+      vec3("direction", "`traction`: its direction (normalized on load); omitted = each face's outward "
+                        "normal. `noise`: the drift direction (normalized), default [1, 0, 0].")
+          .not_zero().only({"traction", "noise"}),
+      vec3("acceleration", "Acceleration, m/s² (force m·a).").only({"body_force"}),
+      vec3("force_density", "Force per volume, N/m³ (force V·f).").only({"body_force"}),
+      vec3("center", "Center of the explosion, m.").req().only(kBlasts),
+      number("pressure", "Peak pressure P at distance ≤ `radius`, Pa.").gt(0).req().only({"blast"}),
+      number("impulse", "Impulse per area I at distance ≤ `radius`, Pa·s.").gt(0).req().only({"radial_impulse"}),
+      number("radius", "Distance within which the peak holds, m.").gt(0).req().only(kBlasts),
+      number("falloff", "Exponent of the decay (radius/r)^falloff beyond `radius` (2: spherical "
+                        "spreading).").ge(0).def(2).only(kBlasts),
+      number("cutoff", "No pressure on faces farther than this, m. \"inf\" = none.").gt(0).or_inf().def("inf").only(kBlasts),
+      number("duration", "Length of the pulse, s (triangular: the peak at arrival, decaying linearly to "
+                         "0); `radial_impulse` may give 0 (an instantaneous impulse).").ge(0).def(0).only(kBlasts),
+      number("front_speed", "Speed of the blast front, m/s: a face at distance r is hit r/front_speed after "
+                            "`start`. \"inf\" = all at once.").gt(0).or_inf().def("inf").only(kBlasts),
+      vec3("velocity", "Wind velocity, m/s.").req().only({"directional"}),
+      number("drag", "Linear drag: force per projected area per m/s of relative wind, Pa·s/m.").ge(0).def(0)
+          .only({"directional"}),
+      number("quadratic_drag", "Quadratic drag: force per projected area per (m/s)², Pa·s²/m² "
+                               "(½ρ_air·C_d: about 0.6 for air and a flat plate).").ge(0).def(0).only({"directional"}),
+      number("amplitude", "Largest value of each component, m/s² (`units` acceleration) or N/m³.")
+          .gt(0).req().only({"noise"}),
+      choice("units", {"acceleration", "force_density"}, "What `amplitude` is.").def("acceleration").only({"noise"}),
+      number("feature_size", "Size of the noise's cells, m (the distance over which it varies).")
+          .gt(0).req().only({"noise"}),
+      number("speed", "Speed at which the pattern drifts along `direction`, m/s.").ge(0).def(0).only({"noise"}),
+      integer("seed", "Seed: the same seed gives the same field, bit for bit.").ge(0).def(0).only({"noise"}),
   }).def(Json::array());
 
   Key collider = nested("colliders", Type::array, "collider",
@@ -244,6 +310,7 @@ Key build_spec() {
       material.at_least(1).req(),
       body,
       condition,
+      load,
       collider,
       contact,
       projectile,

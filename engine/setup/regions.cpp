@@ -5,7 +5,6 @@
 #include "setup/world_setup.hpp"
 
 namespace perifx::setup {
-namespace {
 
 bool in_region(const scene::Region& region, const Vec3& x, int body) {
   if (region.body >= 0 && region.body != body) return false;
@@ -18,8 +17,6 @@ bool in_region(const scene::Region& region, const Vec3& x, int body) {
   }
   return false;
 }
-
-}  // namespace
 
 void resolve_boundary_conditions(const std::vector<scene::BoundaryCondition>& conditions, WorldState& w) {
   const auto& p = w.particles;

@@ -12,7 +12,7 @@ namespace {
 
 // What the step reads from the scene, copied once (systems never see the scene itself).
 void resolve_settings(const scene::Scene& scene, StepSettings& s) {
-  s.gravity = scene.gravity;
+  s.gravity = scene.gravity;  // the loads are resolved with their particle lists (setup/loads.cpp)
   s.normalization = scene.normalization;
   s.family = scene.family;
   s.solver = scene.solver;
@@ -83,6 +83,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   w.settings.max_speed = max_speed(scene, w);
   allocate_step_state(w);
   resolve_boundary_conditions(scene.boundary_conditions, w);
+  resolve_loads(scene.loads, w);
   auto& p = w.particles;
 
   if (fem) {
@@ -93,8 +94,8 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
       systems::setup_fem(w);
       systems::compute_model_constants(w);  // the damping rate; the rest is unused without bonds
       systems::compute_fem_force(w, p.position, w.fem.corner_force, w.state.internal_force);
+      systems::compute_external_force(w, 0.0, 0.0, 0.5 * w.clock.dt);  // the first half step, [0, dt/2]
       parallel_for_each(p.count(), [&](std::size_t i) {
-        w.state.external_force[i] = p.mass[i] * w.settings.gravity;
         p.acceleration[i] = (w.state.internal_force[i] + w.state.external_force[i]) / p.mass[i];
       });
     });
@@ -113,8 +114,8 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     // Initial acceleration for the first kick of velocity Verlet.
     systems::compute_dilatation(w, p.position, w.state.dilatation, w.state.dilatation_coupling);
     systems::compute_internal_force(w, p.position, w.state.dilatation_coupling, w.state.internal_force);
+    systems::compute_external_force(w, 0.0, 0.0, 0.5 * w.clock.dt);  // the first half step, [0, dt/2]
     parallel_for_each(p.count(), [&](std::size_t i) {
-      w.state.external_force[i] = p.mass[i] * w.settings.gravity;
       p.acceleration[i] = (w.state.internal_force[i] + w.state.external_force[i]) / p.mass[i];
     });
   });

@@ -1,6 +1,7 @@
 // Turns a typed scene into a ready WorldState. The work is split by job:
 //   bodies.cpp            meshes every body, places particles (one per tet, Morton order), sizes state
 //   regions.cpp           boundary-condition regions → particle index lists
+//   loads.cpp             boundary patches of the mesh; each load's particles and patches
 //   world_setup.cpp       resolves the scene's settings, then families, initial cracks, the embedded
 //                         mesh, model constants and the initial acceleration (the setup systems)
 //   stable_time_step.cpp  the largest stable explicit step (Spectra)
@@ -26,6 +27,11 @@ TetMesh placed_mesh(const scene::Scene& scene, std::size_t index);
 void allocate_step_state(WorldState& w);
 // regions.cpp: w.boundary from the scene's boundary conditions.
 void resolve_boundary_conditions(const std::vector<scene::BoundaryCondition>& conditions, WorldState& w);
+
+// regions.cpp: whether reference point x of a particle of body `body` lies in `region`.
+bool in_region(const scene::Region& region, const Vec3& x, int body);
+// loads.cpp: w.surface (boundary patches of the reference mesh) and w.loads from the scene's loads.
+void resolve_loads(const std::vector<scene::Load>& loads, WorldState& w);
 
 // stable_time_step.cpp: largest stable velocity-Verlet step 2/ω_max, ω_max² the largest eigenvalue
 // of M⁻¹K for the linearized elastic force at the reference configuration.

@@ -112,6 +112,24 @@ scene::Scene busy_scene() {
   ball.velocity = Vec3(0, -20, 0);
   sc.projectiles.push_back(ball);
   sc.output.obj = true;
+  // Loads of every kind that reads the moving state (positions, velocities, time).
+  scene::Load wind;
+  wind.kind = scene::Load::Kind::directional;
+  wind.vector = Vec3(0, 0, -5);
+  wind.drag = 2.0;
+  scene::Load noise;
+  noise.kind = scene::Load::Kind::noise;
+  noise.magnitude = 50.0;
+  noise.feature_size = 0.05;
+  noise.speed = 1.0;
+  scene::Load blast;
+  blast.kind = scene::Load::Kind::blast;
+  blast.center = Vec3(0, 0.3, 0);
+  blast.radius = 0.05;
+  blast.magnitude = 1e4;
+  blast.duration = 1.0;
+  blast.front_speed = 300.0;
+  sc.loads = {wind, noise, blast};
   return sc;
 }
 

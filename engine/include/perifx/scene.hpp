@@ -99,6 +99,42 @@ struct BoundaryCondition {
   Vec3 center = Vec3::Zero();
 };
 
+// An external load (systems/external_loads.cpp, systems/README.md §8.6): a force applied on top of
+// gravity, scaled by its time window (strength 0 before `start`, a linear ramp over `ramp`, 1 until
+// `end`). Each step applies the window's mean over the time the step's force stands for, so the
+// impulse a load delivers is exact for any dt.
+struct Load {
+  enum class Kind { traction, body_force, blast, radial_impulse, directional, noise };
+  Kind kind = Kind::body_force;
+  Region region;                       // surface loads: the boundary faces whose centroid is inside;
+                                       // body loads: the particles inside (reference positions)
+  TimeWindow window;
+  // traction: stress, Pa (positive along `direction`, or outward = pulling when along the normal).
+  // blast: peak pressure, Pa. radial_impulse: impulse per area, Pa·s. noise: amplitude (m/s² or N/m³).
+  double magnitude = 0.0;
+  bool along_normal = true;            // traction: along each face's outward normal
+  Vec3 direction = Vec3::UnitX();      // traction (when !along_normal), noise drift: unit vector
+  Vec3 vector = Vec3::Zero();          // body_force: acceleration (m/s²) or force density (N/m³);
+                                       // directional: wind velocity, m/s
+  bool per_volume = false;             // body_force, noise: `vector`/`magnitude` is N/m³, not m/s²
+  // blast, radial_impulse: p = P·(radius/max(r, radius))^falloff·g(t − start − r/front_speed),
+  // g(s) = 1 − s/duration on [0, duration) (duration 0: an impulse), zero beyond `cutoff`.
+  Vec3 center = Vec3::Zero();          // m
+  double radius = 0.0;                 // m; blast: peak radius; traction: layer depth (0: faces only)
+  double falloff = 2.0;
+  double cutoff = kInfinity;           // m
+  double duration = 0.0;               // s
+  double front_speed = kInfinity;      // m/s
+  // directional: force on an exposed face = (drag + quadratic_drag·|u|)·projected area·u, with u the
+  // wind velocity relative to the particle.
+  double drag = 0.0;                   // Pa per m/s
+  double quadratic_drag = 0.0;         // Pa per (m/s)²
+  // noise: a smooth value-noise vector field of cell size `feature_size`, drifting at `speed`.
+  double feature_size = 1.0;           // m
+  double speed = 0.0;                  // m/s along `direction`
+  std::uint64_t seed = 0;
+};
+
 struct Collider {
   enum class Kind { plane, sphere, box };
   Kind kind = Kind::plane;
@@ -176,6 +212,7 @@ struct Scene {
   std::vector<Material> materials;
   std::vector<Body> bodies;
   std::vector<BoundaryCondition> boundary_conditions;
+  std::vector<Load> loads;
   std::vector<Collider> colliders;
   Contact contact;
   std::vector<Projectile> projectiles;

@@ -529,3 +529,61 @@ TEST_CASE("scene: output field names are checked against the systems' field regi
   j["output"]["fields"] = Json::array({"velocity", "damage", "fragment_id"});
   CHECK(error_in(j) == "<no error>");
 }
+
+TEST_CASE("scene: loads convert, and their errors name the pointer, the value and the expectation") {
+  Json j = minimal();
+  j["loads"] = Json::parse(R"([
+    {"type": "traction", "traction": 2e5, "region": {"type": "halfspace", "point": [0.5, 0, 0], "normal": [1, 0, 0]},
+     "ramp": 0.01, "end": 0.2},
+    {"type": "traction", "traction": 1e3, "direction": [0, 2, 0], "body": "body0"},
+    {"type": "body_force", "force_density": [0, 10, 0], "start": 0.1},
+    {"type": "blast", "center": [0, 1, 0], "pressure": 1e6, "radius": 0.1, "duration": 1e-3, "front_speed": 340},
+    {"type": "radial_impulse", "center": [0, 1, 0], "impulse": 50, "radius": 0.2},
+    {"type": "directional", "velocity": [20, 0, 0], "quadratic_drag": 0.6},
+    {"type": "noise", "amplitude": 4, "feature_size": 0.3, "speed": 2, "direction": [0, 0, 3], "seed": 9}
+  ])");
+  const Scene s = load_scene_text(j.dump(), "loads.json");
+  REQUIRE(s.loads.size() == 7);
+  using K = Load::Kind;
+  CHECK(s.loads[0].kind == K::traction);
+  CHECK(s.loads[0].along_normal);
+  CHECK(s.loads[0].region.kind == Region::Kind::halfspace);
+  CHECK(s.loads[0].window.ramp == 0.01);
+  CHECK(s.loads[0].window.end == 0.2);
+  CHECK(!s.loads[1].along_normal);
+  CHECK(s.loads[1].direction == Vec3(0, 1, 0));
+  CHECK(s.loads[1].region.body == 0);
+  CHECK(s.loads[2].per_volume);
+  CHECK(s.loads[2].window.end == kInfinity);
+  CHECK(s.loads[3].falloff == 2.0);
+  CHECK(s.loads[3].front_speed == 340);
+  CHECK(s.loads[4].kind == K::radial_impulse);
+  CHECK(s.loads[4].duration == 0.0);
+  CHECK(s.loads[4].front_speed == kInfinity);
+  CHECK(s.loads[5].drag == 0.0);
+  CHECK(s.loads[5].quadratic_drag == 0.6);
+  CHECK(s.loads[6].direction == Vec3(0, 0, 1));
+  CHECK(s.loads[6].seed == 9);
+  CHECK(!s.loads[6].per_volume);
+
+  const auto with = [&](const char* load) {
+    Json k = minimal();
+    k["loads"] = Json::array({Json::parse(load)});
+    return error_in(k);
+  };
+  CHECK(with(R"({"type": "traction", "traction": 1, "start": 2, "end": 1})") ==
+        "cases.json: /loads/0/end: ends before it starts (got 1; expected a time after start = 2)");
+  CHECK(with(R"({"type": "body_force", "acceleration": [0, 1, 0], "force_density": [0, 1, 0]})") ==
+        "cases.json: /loads/0: body force needs exactly one of 'acceleration' (m/s²) and 'force_density' (N/m³) "
+        "(got both)");
+  CHECK_HAS(with(R"({"type": "body_force"})"), "/loads/0: body force needs exactly one of");
+  CHECK(with(R"({"type": "blast", "center": [0, 0, 0], "pressure": 1, "radius": 1})") ==
+        "cases.json: /loads/0/duration: a blast needs a pulse length (got 0; expected a duration > 0 s, or use "
+        "radial_impulse for an instantaneous one)");
+  CHECK_HAS(with(R"({"type": "noise", "amplitude": 1, "feature_size": 1, "pressure": 3})"),
+            "/loads/0/pressure: key 'pressure' is not used by load type 'noise'");
+  CHECK_HAS(with(R"({"type": "directional", "velocity": [1, 0, 0]})"), "/loads/0/drag: no drag");
+  CHECK_HAS(with(R"({"type": "traction", "traction": 1, "body": "nobody"})"), "/loads/0/body: unknown body");
+  CHECK_HAS(with(R"({"type": "wind", "velocity": [1, 0, 0]})"), "/loads/0/type:");
+  CHECK_HAS(with(R"({"type": "noise", "amplitude": -1, "feature_size": 1})"), "/loads/0/amplitude: out of range");
+}

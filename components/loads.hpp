@@ -1,0 +1,33 @@
+// External loads as plain data (systems/external_loads.cpp, systems/README.md §8.6): the bodies'
+// boundary split into surface patches, and each scene load's particles and patches, found once at
+// setup on the reference configuration (engine/setup/loads.cpp), so the step only walks index lists.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "components/math.hpp"
+#include "perifx/scene.hpp"
+
+namespace perifx {
+
+// The boundary faces of the reference tet mesh, as patches owned by particles, CSR by particle.
+// Peridynamics: a boundary face is one patch of its tet's particle. FEM (particles = vertices): each
+// face gives one patch per corner, a third of its area; a traction with a depth adds layer shares.
+struct SurfacePatches {
+  std::vector<std::uint32_t> offsets;  // particle count + 1; patches of i: [offsets[i], offsets[i+1])
+  std::vector<double> area;            // m²
+  std::vector<Vec3> normal;            // outward unit normal (reference orientation)
+  std::vector<Vec3> offset;            // patch point − particle reference position, m (the load is
+                                       // evaluated at current position + offset)
+};
+
+// The scene's loads, each with the particles it acts on (sorted) and, for surface loads, the
+// patches of each of those particles it acts on (CSR over `particles`).
+struct LoadSet {
+  std::vector<scene::Load> loads;
+  std::vector<std::vector<std::uint32_t>> particles;      // per load
+  std::vector<std::vector<std::uint32_t>> patch_offsets;  // per load: particles.size() + 1 (surface loads)
+  std::vector<std::vector<std::uint32_t>> patches;        // per load: indices into SurfacePatches
+};
+
+}  // namespace perifx
