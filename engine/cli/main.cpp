@@ -309,7 +309,12 @@ int cmd_run(const Args& a) {
       std::cerr << "\nopen the results:\n"
                 << "  frames     " << dir << "/render/frame.*.png" << (ro.mp4 ? "  (movie: " + dir + "/render/movie.mp4)" : "")
                 << "\n  ParaView   paraview " << dir << "/particles.pvd   (representation: Point Gaussian)\n"
-                << "  Blender    File > Import > Wavefront (.obj): " << dir << "/surface.NNNN.obj, one file per frame\n";
+                << (std::filesystem::exists(s.output_directory / "animation.pc2")
+                        ? "  Blender    " + dir + "/animation.obj + animation.pc2 (Mesh Cache modifier; README, \"Blender\")\n"
+                        : "  Blender    File > Import > Wavefront (.obj): " + dir + "/surface.NNNN.obj, one file per frame\n")
+                << (std::filesystem::exists(s.output_directory / "animation.glb")
+                        ? "  glTF       " + dir + "/animation.glb (rigid pieces: game engines, Blender, three.js)\n"
+                        : "");
     }
   }
   return kOk;
