@@ -8,6 +8,8 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
+#include "components/world_state.hpp"
+
 namespace perifx {
 namespace {
 
@@ -111,7 +113,9 @@ void record_animation_frame(AnimationHistory& h, const World& world, std::uint64
   h.previous_fragment.assign(fragment, fragment + n);
 
   // ---- vertices: parents of the copies made since the previous frame ----
-  const TetMeshView mesh = world.tet_mesh();  // evaluates the vertex positions for this frame
+  // The vertices as the caller's World::surface() / tet_mesh() left them: evaluating them again would
+  // move particles with few bonds on (their held rotation relaxes each evaluation).
+  const EmbeddedMesh& mesh = world.state().embedded;
   const std::size_t known = h.vertex_parent.size(), count = mesh.vertices.size();
   h.vertex_parent.resize(count, kNoPiece);
   h.vertex_birth.resize(count, frame);
@@ -145,7 +149,7 @@ void trim_animation_history(AnimationHistory& h, const World& world, std::uint64
   if (h.frames.empty() || h.frames.back().frame != frame)
     throw std::runtime_error("the animation history does not reach frame " + std::to_string(frame));
   const std::uint32_t count = h.frames.back().vertex_count;
-  const TetMeshView mesh = world.tet_mesh();
+  const EmbeddedMesh& mesh = world.state().embedded;  // as the checkpoint left it (no re-evaluation)
   if (mesh.vertices.size() != count)
     throw std::runtime_error("the animation history has " + std::to_string(count) + " vertices at frame " +
                              std::to_string(frame) + ", the checkpoint " + std::to_string(mesh.vertices.size()));

@@ -63,7 +63,10 @@ struct AnimationHistory {
   std::vector<std::uint32_t> previous_fragment;
 };
 
-// Appends `frame` (frames must increase). Needs a world with an embedded mesh.
+// Appends `frame` (frames must increase). Needs a world with an embedded mesh whose vertices the
+// caller has just made current, once (World::surface() or tet_mesh()): the vertex positions are read
+// as they are, because each evaluation relaxes the held rotation of particles with few bonds a little
+// further, so a second one would record positions the frame's surface files do not have.
 void record_animation_frame(AnimationHistory& history, const World& world, std::uint64_t frame);
 
 // After a resume from the checkpoint of `frame`: drops later frames, vertices and pieces and takes

@@ -131,11 +131,13 @@ std::vector<io::RigidPieceTrack> piece_tracks(const AnimationHistory& history, c
 }
 
 // The exports made from a run's whole history: pieces.csv, and animation.obj + .pc2 (cache) and
-// animation.glb (gltf) from the world's current (final) surface.
-void write_animation(const World& world, const AnimationHistory& history, const fs::path& dir) {
+// animation.glb (gltf) from the surface of its last frame.
+void write_animation(const World& world, const AnimationHistory& history, const SurfaceMesh& last_surface,
+                     const fs::path& dir) {
   const auto& out = world.scene().output;
   io::write_pieces_csv(dir / "pieces.csv", history);
-  const AnimationCache cache = build_animation_cache(history, world.surface());
+  if (last_surface.triangles.empty()) return;  // every piece below min_piece_tets: no surface to animate
+  const AnimationCache cache = build_animation_cache(history, last_surface);
   if (out.cache && !cache.frames.empty()) {
     io::write_surface_mtl(dir / "surface.mtl");
     io::write_obj_cache(dir / "animation.obj", cache.surface, cache.frames.front(), cache.crack_uv);
@@ -249,9 +251,9 @@ RunSummary run_world(World& world, const RunOptions& options) {
   if (sc.output.obj) io::write_surface_mtl(summary.output_directory / "surface.mtl");
 
   double step_wall = 0.0, output_wall = 0.0;
+  SurfaceMesh last_surface;  // the last written frame's surface (the animation exports' topology)
   auto write_frame = [&](std::uint64_t k) {
     const auto t0 = clock::now();
-    if (animation) record_animation_frame(history, world, k);
     const auto fields = selected_fields(world);
     const std::vector<Vec3> points(world.positions().begin(), world.positions().end());
     if (sc.output.vtu) {
@@ -260,17 +262,20 @@ RunSummary run_world(World& world, const RunOptions& options) {
     }
     if (sc.output.ply) io::write_ply_points(summary.output_directory / frame_name(k, "ply"), points, fields);
     // Embedded tet mesh (§5.2): the split mesh's surface (original + crack triangles) and its tets.
-    if (mesh_output) {
-      if (sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp) {
-        const SurfaceMesh surface = world.surface();
+    if (mesh_output || animation) {
+      if (sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || animation) {
+        // One evaluation of the vertices per frame, shared by the surface files and the animation.
+        SurfaceMesh surface = world.surface();
+        if (animation) record_animation_frame(history, world, k);
         if (sc.output.obj) io::write_obj_surface(dir / frame_name(k, "obj", "surface"), surface);
         if (sc.output.surface_ply) io::write_ply_surface(dir / frame_name(k, "ply", "surface"), surface);
         if (sc.output.surface_vtp) {
           io::write_vtp_surface(dir / frame_name(k, "vtp", "surface"), surface);
           surface_pvd.add(world.time(), frame_name(k, "vtp", "surface"));
         }
+        if (animation) last_surface = std::move(surface);
       }
-      if (sc.output.tets_vtu) {
+      if (mesh_output && sc.output.tets_vtu) {
         const TetMeshView mesh = world.tet_mesh();
         const FieldView damage = world.field("damage"), fragment = world.field("fragment_id");
         const auto* damage_data = static_cast<const double*>(damage.data);
@@ -354,7 +359,9 @@ RunSummary run_world(World& world, const RunOptions& options) {
 
   if (animation && !history.frames.empty()) {
     const auto t0 = clock::now();
-    write_animation(world, history, dir);
+    // A resume that ran no frame has no surface yet: the checkpoint's (one more evaluation).
+    if (last_surface.triangles.empty() && history.frames.back().frame == summary.last_frame) last_surface = world.surface();
+    write_animation(world, history, last_surface, dir);
     output_wall += std::chrono::duration<double>(clock::now() - t0).count();
   }
 

@@ -137,6 +137,11 @@ times = sorted({(int(r["frame"]), float(r["time"])) for r in rows})
 # The frame rate: frame k is at k / frame_rate in the glb.
 fps = round(last / max(t for _, t in times)) if last else 24
 scene.render.fps, scene.render.fps_base = int(fps), 1.0
+# Debian's Blender 3.4 glTF importer uses numpy.bool, which Debian 12's numpy 1.24 no longer has (the
+# import fails for any file); the README gives artists the same one-line fix.
+import numpy
+if not hasattr(numpy, "bool"):
+    numpy.bool = bool
 bpy.ops.import_scene.gltf(filepath=os.path.join(run, "animation.glb"))
 pieces = {int(r["piece"]): r for r in rows if int(r["frame"]) == last}
 objects = {o.name: o for o in scene.objects if o.type == "MESH"}

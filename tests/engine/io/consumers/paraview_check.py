@@ -16,7 +16,7 @@ frame = max(int(f.split(".")[1]) for f in os.listdir(run) if f.startswith("surfa
 # attribute -> the array names that carry it in ParaView
 CARRIERS = {
     "piece": ("piece", "fragment"),
-    "crack": ("crack",),
+    "crack": ("crack", "MaterialIds"),  # OBJ: the material (surface / crack) per cell
     "velocity": ("velocity", "vx"),
     "normal": ("normal", "Normals"),
     "groups": ("GroupIds",),
@@ -25,7 +25,7 @@ CARRIERS = {
 EXPECTED = {
     "surface.vtp": {"piece", "crack", "velocity", "normal"},
     "surface.ply": {"normal"},
-    "surface.obj": {"groups"},
+    "surface.obj": {"groups", "crack"},
 }
 
 files = {

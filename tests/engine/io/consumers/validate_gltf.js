@@ -15,7 +15,7 @@ async function main(files) {
     });
     const i = report.issues;
     console.log(`${file}: ${i.numErrors} errors, ${i.numWarnings} warnings, ${i.numInfos} infos, ${i.numHints} hints` +
-                ` (${report.info.nodeCount ?? '?'} nodes, ${report.info.animationCount ?? 0} animations,` +
+                ` (${report.info.drawCallCount} primitives, ${report.info.animationCount ?? 0} animations,` +
                 ` ${report.info.totalTriangleCount ?? '?'} triangles)`);
     for (const m of i.messages) console.log(`  [${['error', 'warning', 'info', 'hint'][m.severity]}] ${m.code} ${m.pointer || ''}: ${m.message}`);
     if (i.numErrors > 0 || i.numWarnings > 0) bad++;
