@@ -3,7 +3,7 @@
 # `npm install --prefix build/gltf_validator gltf-validator`):
 #   bash assets/report/export_runs.sh OUT_DIR
 # Every fracture preview is run for its first FRAMES frames (2 for the slow fig05/fig14, as in the
-# tests) with output.formats = ["surface_ply", "cache", "gltf"] and one thread, its animation.glb
+# tests) with output.formats = ["surface_ply", "cache", "gltf"] and two threads, its animation.glb
 # validated; fig01_brittle_walls and fig16_bunny_drop are run for the frames rendered in the report.
 set -euo pipefail
 out=${1:?usage: export_runs.sh OUT_DIR}
@@ -32,7 +32,7 @@ s.setdefault("output", {})["formats"] = ["surface_ply", "cache", "gltf"]
 json.dump(s, open(dst, "w"), indent=1)
 PY
   start=$(date +%s)
-  ./build/perifx run "$out/$name.json" --out "$out/$name" --frames "$(frames_of "$name")" --threads 1 --overwrite --quiet
+  ./build/perifx run "$out/$name.json" --out "$out/$name" --frames "$(frames_of "$name")" --threads 2 --overwrite --quiet
   echo "$name: $(frames_of "$name") frames in $(( $(date +%s) - start )) s"
   glbs+=("$out/$name/animation.glb")
 done
