@@ -4,7 +4,7 @@
 'use strict';
 const fs = require('fs');
 const path = require('path');
-const validator = require(process.env.GLTF_VALIDATOR || 'gltf-validator');
+const validator = require(process.env.GLTF_VALIDATOR ? path.resolve(process.env.GLTF_VALIDATOR) : 'gltf-validator');
 
 async function main(files) {
   let bad = 0;
