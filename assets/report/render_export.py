@@ -40,9 +40,13 @@ for poly in obj.data.polygons:
 # Frame the evaluated mesh.
 ev = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
 pts = [obj.matrix_world @ v.co for v in ev.data.vertices]
-lo = Vector((min(p.x for p in pts), min(p.y for p in pts), min(p.z for p in pts)))
-hi = Vector((max(p.x for p in pts), max(p.y for p in pts), max(p.z for p in pts)))
+def span(axis, q):  # the q-quantile of the vertices' coordinate (far-flung dust does not widen the shot)
+    c = sorted(p[axis] for p in pts)
+    return c[min(len(c) - 1, int(q * len(c)))]
+lo = Vector([span(a, 0.02) for a in range(3)])
+hi = Vector([span(a, 0.98) for a in range(3)])
 center, diag = (lo + hi) / 2, (hi - lo).length
+lo.z = min(p.z for p in pts)
 
 # Ground plane just below, a sun and a sky.
 bpy.ops.mesh.primitive_plane_add(size=diag * 20, location=(center.x, center.y, lo.z - 1e-3 * diag))
