@@ -419,7 +419,7 @@ int main(int argc, char** argv) {
     text_option(sub, "--solver", a.solver, "peridynamics|fem_linear|fem_corotated (overrides the scene)");
     text_option(sub, "--dt", a.dt, "time step in seconds (overrides the scene)");
   };
-  CLI::App* run = app.add_subcommand("run", "simulate and write frames (VTU + PVD for ParaView, PLY for Houdini/Blender)");
+  CLI::App* run = app.add_subcommand("run", "simulate and write frames (VTU/VTP + PVD for ParaView, OBJ/PLY for Houdini, an OBJ + PC2 point cache for Blender, glTF for game engines)");
   scene_options(run);
   text_option(run, "--out", a.out, "output directory (overrides the scene)");
   text_option(run, "--frames", a.frames, "run this many frames (N >= 1) instead of the scene's duration");
