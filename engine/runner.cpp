@@ -10,9 +10,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "animation.hpp"
 #include "components/world_state.hpp"
+#include "io/animation_history.hpp"
 #include "io/atomic.hpp"
+#include "io/gltf.hpp"
 #include "io/obj.hpp"
+#include "io/pc2.hpp"
+#include "io/pieces_csv.hpp"
 #include "io/ply.hpp"
 #include "io/run_dir.hpp"
 #include "io/vtk.hpp"
@@ -91,7 +96,9 @@ bool is_run_file(const std::string& name) {
   // A temporary of an atomic write (io/atomic.hpp: "<name>.tmp-<pid>") that a kill left behind.
   if (const auto tmp = name.find(".tmp-"); tmp != std::string::npos) return is_run_file(name.substr(0, tmp));
   return frame_number(name) >= 0 || name == "projectiles.csv" || name == "summary.json" || name == "mesh.json" ||
-         name == "checkpoint.bin" || name == "surface.mtl" || (name.size() > 4 && name.ends_with(".pvd"));
+         name == "checkpoint.bin" || name == "surface.mtl" || name == "pieces.csv" || name == "animation.bin" ||
+         name == "animation.obj" || name == "animation.pc2" || name == "animation.glb" ||
+         (name.size() > 4 && name.ends_with(".pvd"));
 }
 
 void remove_files(const std::vector<fs::path>& files) {
@@ -103,6 +110,51 @@ void remove_files(const std::vector<fs::path>& files) {
 }
 
 using PvdEntries = std::vector<std::pair<double, std::string>>;
+
+// glTF keyframes of the final pieces `ids` (increasing): per recorded frame the best-fit rigid motion
+// of the piece, or of the piece it split from when it did not exist yet (reference pose if neither).
+std::vector<io::RigidPieceTrack> piece_tracks(const AnimationHistory& history, const std::vector<std::uint32_t>& ids) {
+  std::vector<io::RigidPieceTrack> tracks;
+  for (std::uint32_t id : ids) {
+    io::RigidPieceTrack t;
+    t.id = id;
+    for (std::size_t f = 0; f < history.frames.size(); ++f) {
+      const PieceSample* p = piece_pose(history, f, id);
+      t.translation.push_back(p ? p->translation : Vec3::Zero());
+      Eigen::Vector4d q = p ? rotation_quaternion(p->rotation) : Eigen::Vector4d(0, 0, 0, 1);
+      if (!t.rotation.empty() && q.dot(t.rotation.back()) < 0) q = -q;  // the short way round
+      t.rotation.push_back(q);
+    }
+    tracks.push_back(std::move(t));
+  }
+  return tracks;
+}
+
+// The exports made from a run's whole history: pieces.csv, and animation.obj + .pc2 (cache) and
+// animation.glb (gltf) from the surface of its last frame.
+void write_animation(const World& world, const AnimationHistory& history, const SurfaceMesh& last_surface,
+                     const fs::path& dir) {
+  const auto& out = world.scene().output;
+  io::write_pieces_csv(dir / "pieces.csv", history);
+  if (last_surface.triangles.empty()) return;  // every piece below min_piece_tets: no surface to animate
+  const AnimationCache cache = build_animation_cache(history, last_surface);
+  if (out.cache && !cache.frames.empty()) {
+    io::write_surface_mtl(dir / "surface.mtl");
+    io::write_obj_cache(dir / "animation.obj", cache.surface, cache.frames.front(), cache.crack_uv);
+    io::write_pc2(dir / "animation.pc2", cache.frames);
+  }
+  if (out.gltf) {
+    SurfaceMesh rest = cache.surface;
+    rest.vertices = rest.reference;  // each piece's mesh in its reference pose; the nodes move it
+    std::vector<std::uint32_t> ids(rest.fragment.begin(), rest.fragment.end());
+    std::sort(ids.begin(), ids.end());
+    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+    std::vector<double> times;
+    for (const AnimationFrame& f : history.frames) times.push_back(double(f.frame) / world.scene().time.frame_rate);
+    io::write_glb(dir / "animation.glb", rest, cache.crack_uv, times, piece_tracks(history, ids),
+                  std::string("perifx ") + PERIFX_VERSION);
+  }
+}
 
 }  // namespace
 
@@ -140,6 +192,15 @@ RunSummary run_world(World& world, const RunOptions& options) {
     throw std::invalid_argument("output formats obj/surface_ply/surface_vtp/tets_vtu need the embedded tet mesh "
                                 "(solver 'peridynamics')");
   io::remove_stale_temporaries(summary.output_directory);  // *.tmp-<pid> of killed runs
+  bool animation = sc.output.cache || sc.output.gltf;
+  if (animation && !world.has_embedded_mesh()) {
+    if (!sc.output.surfaces_by_default)
+      throw std::invalid_argument("output formats cache/gltf need the embedded tet mesh (solver 'peridynamics')");
+    animation = false;
+  }
+  AnimationHistory history;
+  history.record_vertices = sc.output.cache;
+  history.min_piece_tets = sc.output.min_piece_tets;
   const std::size_t bonds = world.bond_count();
 
   // A folder holding another run: refuse, clear it, or continue it from its checkpoint.
@@ -160,6 +221,15 @@ RunSummary run_world(World& world, const RunOptions& options) {
     surface_pvd.restore(note.at("surface_pvd").get<PvdEntries>());
     tets_pvd.restore(note.at("tets_pvd").get<PvdEntries>());
     projectile_csv = note.at("projectile_csv").get<std::string>();
+    if (animation) {
+      // Written just before the checkpoint, so it reaches the checkpoint's frame (or one later).
+      history = io::read_animation_history(dir / "animation.bin");
+      try {
+        trim_animation_history(history, world, start_frame);
+      } catch (const std::runtime_error& e) {
+        throw io::IoError("cannot resume from '" + (dir / "animation.bin").string() + "': " + e.what());
+      }
+    }
     // Frames the interrupted run wrote after its checkpoint are written again (the same bytes); any
     // beyond this run's last frame would not be, so they go, and so do temporaries a kill left.
     std::vector<fs::path> later;
@@ -182,6 +252,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
   if (sc.output.obj) io::write_surface_mtl(summary.output_directory / "surface.mtl");
 
   double step_wall = 0.0, output_wall = 0.0;
+  SurfaceMesh last_surface;  // the last written frame's surface (the animation exports' topology)
   auto write_frame = [&](std::uint64_t k) {
     const auto t0 = clock::now();
     const auto fields = selected_fields(world);
@@ -192,17 +263,20 @@ RunSummary run_world(World& world, const RunOptions& options) {
     }
     if (sc.output.ply) io::write_ply_points(summary.output_directory / frame_name(k, "ply"), points, fields);
     // Embedded tet mesh (§5.2): the split mesh's surface (original + crack triangles) and its tets.
-    if (mesh_output) {
-      if (sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp) {
-        const SurfaceMesh surface = world.surface();
+    if (mesh_output || animation) {
+      if (sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || animation) {
+        // One evaluation of the vertices per frame, shared by the surface files and the animation.
+        SurfaceMesh surface = world.surface();
+        if (animation) record_animation_frame(history, world, k);
         if (sc.output.obj) io::write_obj_surface(dir / frame_name(k, "obj", "surface"), surface);
         if (sc.output.surface_ply) io::write_ply_surface(dir / frame_name(k, "ply", "surface"), surface);
         if (sc.output.surface_vtp) {
           io::write_vtp_surface(dir / frame_name(k, "vtp", "surface"), surface);
           surface_pvd.add(world.time(), frame_name(k, "vtp", "surface"));
         }
+        if (animation) last_surface = std::move(surface);
       }
-      if (sc.output.tets_vtu) {
+      if (mesh_output && sc.output.tets_vtu) {
         const TetMeshView mesh = world.tet_mesh();
         const FieldView damage = world.field("damage"), fragment = world.field("fragment_id");
         const auto* damage_data = static_cast<const double*>(damage.data);
@@ -240,6 +314,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
                            {"surface_pvd", surface_pvd.entries()},
                            {"tets_pvd", tets_pvd.entries()},
                            {"projectile_csv", projectile_csv}};
+    if (animation) io::write_animation_history(dir / "animation.bin", history);
     world.save_checkpoint(checkpoint, note.dump());
     output_wall += std::chrono::duration<double>(clock::now() - t0).count();
   };
@@ -290,6 +365,14 @@ RunSummary run_world(World& world, const RunOptions& options) {
       summary.interrupted = true;
       break;
     }
+  }
+
+  if (animation && !history.frames.empty()) {
+    const auto t0 = clock::now();
+    // A resume that ran no frame has no surface yet: the checkpoint's (one more evaluation).
+    if (last_surface.triangles.empty() && history.frames.back().frame == summary.last_frame) last_surface = world.surface();
+    write_animation(world, history, last_surface, dir);
+    output_wall += std::chrono::duration<double>(clock::now() - t0).count();
   }
 
   summary.particles = world.particle_count();

@@ -134,13 +134,14 @@ perifx::scene::Scene load(const Args& a) {
   }
   if (sc.solver != perifx::scene::Solver::peridynamics && sc.output.surfaces_by_default) {
     // Surfaces the scene did not list (the default): an FEM run has no split mesh, so leave them out.
-    sc.output.obj = sc.output.surface_ply = false;
+    sc.output.obj = sc.output.surface_ply = sc.output.cache = false;
     sc.output.surfaces_by_default = false;
   }
   if (sc.solver != perifx::scene::Solver::peridynamics &&
-      (sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || sc.output.tets_vtu))
+      (sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || sc.output.tets_vtu || sc.output.cache ||
+       sc.output.gltf))
     throw perifx::scene::SceneError(a.scene, "/output/formats",
-                                    "obj, surface_ply, surface_vtp and tets_vtu need the embedded tet mesh (got an FEM "
+                                    "obj, surface_ply, surface_vtp, tets_vtu, cache and gltf need the embedded tet mesh (got an FEM "
                                     "solver; expected solver 'peridynamics' or formats vtu, ply)");
   return sc;
 }
@@ -359,7 +360,12 @@ int cmd_run(const Args& a) {
       std::cerr << "\nopen the results:\n"
                 << "  frames     " << dir << "/render/frame.*.png" << (ro.mp4 ? "  (movie: " + dir + "/render/movie.mp4)" : "")
                 << "\n  ParaView   paraview " << dir << "/particles.pvd   (representation: Point Gaussian)\n"
-                << "  Blender    File > Import > Wavefront (.obj): " << dir << "/surface.NNNN.obj, one file per frame\n";
+                << (std::filesystem::exists(s.output_directory / "animation.pc2")
+                        ? "  Blender    " + dir + "/animation.obj + animation.pc2 (Mesh Cache modifier; README, \"Blender\")\n"
+                        : "  Blender    File > Import > Wavefront (.obj): " + dir + "/surface.NNNN.obj, one file per frame\n")
+                << (std::filesystem::exists(s.output_directory / "animation.glb")
+                        ? "  glTF       " + dir + "/animation.glb (rigid pieces: game engines, Blender, three.js)\n"
+                        : "");
     }
   }
   return kOk;
@@ -465,7 +471,7 @@ int main(int argc, char** argv) {
     text_option(sub, "--solver", a.solver, "peridynamics|fem_linear|fem_corotated (overrides the scene)");
     text_option(sub, "--dt", a.dt, "time step in seconds (overrides the scene)");
   };
-  CLI::App* run = app.add_subcommand("run", "simulate and write frames (VTU + PVD for ParaView, PLY for Houdini/Blender)");
+  CLI::App* run = app.add_subcommand("run", "simulate and write frames (VTU/VTP + PVD for ParaView, OBJ/PLY for Houdini, an OBJ + PC2 point cache for Blender, glTF for game engines)");
   scene_options(run);
   text_option(run, "--out", a.out, "output directory (overrides the scene)");
   text_option(run, "--frames", a.frames, "run this many frames (N >= 1) instead of the scene's duration");

@@ -89,6 +89,53 @@ void write_obj_surface(const fs::path& target, const SurfaceMesh& surface, const
   write_atomic(target, [&](std::ostream& os) { os.write(text.data(), static_cast<std::streamsize>(text.size())); });
 }
 
+void write_obj_cache(const fs::path& target, const SurfaceMesh& surface, const std::vector<float>& positions,
+                     const std::vector<std::array<std::array<double, 2>, 3>>& uv, const std::string& mtl_file) {
+  detail::check_surface(target, surface);
+  if (positions.size() != 3 * surface.vertices.size() || uv.size() != surface.triangles.size())
+    detail::fail_write(target, std::to_string(positions.size()) + " coordinates and " + std::to_string(uv.size()) +
+                                   " UV triangles for " + std::to_string(surface.vertices.size()) + " vertices and " +
+                                   std::to_string(surface.triangles.size()) + " triangles");
+  std::string text;
+  text.reserve(40 * surface.vertices.size() + 60 * surface.triangles.size() + 128);
+  text += "# perifx point-cache surface (positions per frame: animation.pc2)\nmtllib " + mtl_file + "\n";
+  for (std::size_t v = 0; v < surface.vertices.size(); ++v) {
+    text += "v";
+    for (int d = 0; d < 3; ++d) text += ' ', append_number(text, double{positions[3 * v + d]});
+    text += '\n';
+  }
+  for (std::size_t f = 0; f < surface.triangles.size(); ++f) {
+    if (!surface.crack[f]) continue;
+    for (int k = 0; k < 3; ++k) {
+      text += "vt ";
+      append_number(text, uv[f][k][0]);
+      text += ' ';
+      append_number(text, uv[f][k][1]);
+      text += '\n';
+    }
+  }
+  std::uint64_t next_uv = 1;
+  for (std::size_t f = 0; f < surface.triangles.size(); ++f) {
+    const bool new_piece = f == 0 || surface.fragment[f - 1] != surface.fragment[f];
+    if (new_piece) {
+      text += "o piece_";
+      append_number(text, std::uint64_t{surface.fragment[f]});
+      text += "\ng piece_";
+      append_number(text, std::uint64_t{surface.fragment[f]});
+      text += '\n';
+    }
+    if (new_piece || surface.crack[f - 1] != surface.crack[f]) text += surface.crack[f] ? "usemtl crack\n" : "usemtl surface\n";
+    text += 'f';
+    for (auto v : surface.triangles[f]) {
+      text += ' ';
+      append_number(text, std::uint64_t{v} + 1);
+      if (surface.crack[f]) text += '/', append_number(text, next_uv++);
+    }
+    text += '\n';
+  }
+  write_atomic(target, [&](std::ostream& os) { os.write(text.data(), static_cast<std::streamsize>(text.size())); });
+}
+
 void write_surface_mtl(const fs::path& target) {
   static constexpr std::string_view kMtl =
       "# perifx surface materials\n"

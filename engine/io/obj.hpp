@@ -1,7 +1,9 @@
 // Wavefront OBJ surfaces: the embedded-mesh surface per frame (with its .mtl) and surface input.
 #pragma once
 #include <filesystem>
+#include <array>
 #include <string>
+#include <vector>
 
 #include "components/embedded_mesh.hpp"
 #include "io/triangle_surface.hpp"
@@ -14,6 +16,14 @@ namespace perifx::io {
 // Coordinates with 9 significant digits. No normals: vertices are shared (each piece is closed).
 void write_obj_surface(const std::filesystem::path& target, const SurfaceMesh& surface,
                        const std::string& mtl_file = "surface.mtl");
+// The surface of a point cache (animation.obj beside animation.pc2): vertices in the order given (the
+// caller orders them by first use, so importers that renumber vertices by first use keep the order),
+// `vt` coordinates for the crack faces (`uv`, 3 per triangle; outside faces have none), then per piece
+// `o piece_<id>` / `g piece_<id>` with `usemtl surface` / `usemtl crack` faces, in triangle order
+// (the caller sorts triangles by piece, outside before crack). `positions`: 3 floats per vertex.
+void write_obj_cache(const std::filesystem::path& target, const SurfaceMesh& surface, const std::vector<float>& positions,
+                     const std::vector<std::array<std::array<double, 2>, 3>>& uv,
+                     const std::string& mtl_file = "surface.mtl");
 // The two materials the OBJ files use (grey surface, orange crack).
 void write_surface_mtl(const std::filesystem::path& target);
 

@@ -211,12 +211,13 @@ void write_ply_surface(const fs::path& target, const SurfaceMesh& surface) {
             "\nproperty float nx\nproperty float ny\nproperty float nz"
             "\nproperty float vx\nproperty float vy\nproperty float vz"
             "\nproperty float rx\nproperty float ry\nproperty float rz"
-            "\nproperty uint source\nelement face ";
+            "\nproperty uint source\nproperty uint piece\nelement face ";
   append_number(header, std::uint64_t{surface.triangles.size()});
   header += "\nproperty list uchar int vertex_indices\nproperty uchar crack\nproperty uint fragment\nproperty uint tet\nend_header\n";
-  // Vertex record: 12 floats + 1 uint = 52 bytes; face record: 1 + 12 + 1 + 4 + 4 = 22 bytes, packed.
+  // Vertex record: 12 floats + 2 uints = 56 bytes; face record: 1 + 12 + 1 + 4 + 4 = 22 bytes, packed.
+  const std::vector<std::uint32_t> piece = vertex_pieces(r, surface);
   std::string body;
-  body.resize(52 * r.position.size() + 22 * surface.triangles.size());
+  body.resize(56 * r.position.size() + 22 * surface.triangles.size());
   char* out = body.data();
   auto put3 = [&](const Vec3& v) {
     const float xyz[3] = {static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z())};
@@ -229,6 +230,8 @@ void write_ply_surface(const fs::path& target, const SurfaceMesh& surface) {
     put3(r.velocity[v]);
     put3(r.reference[v]);
     std::memcpy(out, &r.source[v], 4);
+    out += 4;
+    std::memcpy(out, &piece[v], 4);
     out += 4;
   }
   for (std::size_t f = 0; f < surface.triangles.size(); ++f) {

@@ -40,4 +40,11 @@ RenderSurface render_surface(const SurfaceMesh& s) {
   return r;
 }
 
+std::vector<std::uint32_t> vertex_pieces(const RenderSurface& r, const SurfaceMesh& surface) {
+  std::vector<std::uint32_t> piece(r.position.size(), 0u);
+  for (std::size_t f = 0; f < r.triangles.size() && f < surface.fragment.size(); ++f)
+    for (auto v : r.triangles[f]) piece[v] = surface.fragment[f];
+  return piece;
+}
+
 }  // namespace perifx::io

@@ -23,4 +23,7 @@ struct RenderSurface {
 // zero velocity, reference = position and source = the input vertex index.
 RenderSurface render_surface(const SurfaceMesh& surface);
 
+// Piece id (`fragment` of its triangles) per written vertex of `r` (made from `surface`).
+std::vector<std::uint32_t> vertex_pieces(const RenderSurface& r, const SurfaceMesh& surface);
+
 }  // namespace perifx::io

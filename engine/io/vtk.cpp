@@ -174,6 +174,7 @@ void write_vtp_surface(const fs::path& target, const SurfaceMesh& surface) {
   add_vector(w, "Float64", "velocity", 3, r.velocity);
   add_vector(w, "Float64", "reference", 3, r.reference);
   add_vector(w, "UInt32", "source", 0, r.source);
+  add_vector(w, "UInt32", "piece", 0, vertex_pieces(r, surface));
   w.end_section();
   w.begin_section("CellData");
   add_vector(w, "UInt8", "crack", 0, surface.crack);

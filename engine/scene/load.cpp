@@ -219,6 +219,8 @@ class Converter {
     s.output.surface_ply = has_format("surface_ply");
     s.output.surface_vtp = has_format("surface_vtp");
     s.output.tets_vtu = has_format("tets_vtu");
+    s.output.cache = has_format("cache");
+    s.output.gltf = has_format("gltf");
     s.output.fields = o["fields"].get<std::vector<std::string>>();
     s.output.checkpoint_every = o["checkpoint_every"].get<std::uint64_t>();
     s.output.min_piece_tets = o["min_piece_tets"].get<std::uint32_t>();
@@ -619,7 +621,7 @@ Scene load_scene_text(const std::string& text, const fs::path& file) {
   // what a renderer draws is the body, not its particles. (FEM runs have no embedded mesh: the
   // runner leaves defaulted surfaces out there.)
   if (!formats_given && s.solver == Solver::peridynamics) {
-    s.output.obj = s.output.surface_ply = true;
+    s.output.obj = s.output.surface_ply = s.output.cache = true;
     s.output.surfaces_by_default = true;
   }
   for (Body& b : s.bodies)

@@ -317,19 +317,24 @@ Key build_spec() {
       crack,
       object("output", "output", "What is written, and where.", {
           text("directory", "Output folder, relative to the current working directory.").def("out"),
-          strings("formats", {"vtu", "ply", "obj", "surface_ply", "surface_vtp", "tets_vtu"},
+          strings("formats", {"vtu", "ply", "obj", "surface_ply", "surface_vtp", "tets_vtu", "cache", "gltf"},
                   "`vtu`: VTU files and a .pvd series (ParaView); `ply`: binary PLY points. Embedded tet "
                   "mesh (split along cracks, paper §5.2): `obj`: surface.NNNN.obj (groups and materials "
                   "`surface` and `crack`, surface.mtl); `surface_ply`: surface.NNNN.ply (binary, per-face "
                   "`crack` and `fragment`); `surface_vtp`: surface.NNNN.vtp + surface.pvd; `tets_vtu`: "
-                  "tets.NNNN.vtu + tets.pvd (per-tet damage and fragment). When `formats` is not given, "
-                  "`obj` and `surface_ply` are added to the default (peridynamics; FEM runs have no split mesh).")
+                  "tets.NNNN.vtu + tets.pvd (per-tet damage and fragment). At the end of the run: `cache`: "
+                  "animation.obj (the final surface once: groups per piece, crack-face UVs) + animation.pc2 (every "
+                  "vertex's position at every frame, for Blender's Mesh Cache modifier); `gltf`: animation.glb (binary "
+                  "glTF 2.0, one node per piece animated by its best-fit rigid motion); either also writes "
+                  "pieces.csv (per piece and frame: mass, centre of mass, rigid motion, velocities, birth frame, "
+                  "parent). When `formats` is not given, `obj`, `surface_ply` and `cache` are added to the default "
+                  "(peridynamics; FEM runs have no split mesh).")
               .at_least(1).def(Json::array({"vtu", "ply"})),
           strings("fields", {}, "Particle fields to write; empty = all. Names: see Particle fields below.").def(Json::array()),
           integer("checkpoint_every", "Write checkpoint.bin (the complete world state, for `perifx run --resume`) "
                   "every this many frames, and after the last frame; 0 = never.").ge(0).def(10),
           integer("min_piece_tets", "Pieces (components of alive bonds, `fragment_id`) with fewer tets than this "
-                  "are left out of the surface files (obj, surface_ply, surface_vtp): dust. 0 keeps every piece; "
+                  "are left out of the surface files (obj, surface_ply, surface_vtp, cache, gltf) and pieces.csv: dust. 0 keeps every piece; "
                   "the particle files keep every particle.").ge(0).def(0),
       }).def(Json::object()),
   });

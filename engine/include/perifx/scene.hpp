@@ -192,7 +192,12 @@ struct Output {
   bool surface_ply = false;
   bool surface_vtp = false;            // surface.NNNN.vtp + surface.pvd (ParaView)
   bool tets_vtu = false;
-  bool surfaces_by_default = false;    // obj + surface_ply were added because `formats` was not given
+  // At the end of the run (engine/animation.hpp): `cache` writes animation.obj + animation.pc2 (the
+  // final surface and every vertex's position per frame, Blender's Mesh Cache modifier), `gltf`
+  // animation.glb (rigid pieces); either also writes pieces.csv (per-piece motion per frame).
+  bool cache = false;
+  bool gltf = false;
+  bool surfaces_by_default = false;    // obj + surface_ply + cache were added because `formats` was not given
   std::vector<std::string> fields;     // particle fields to write; empty = all registered fields
   std::uint64_t checkpoint_every = 10; // frames between checkpoints (perifx run --resume); 0 = never
   std::uint32_t min_piece_tets = 0;    // surface files leave out pieces with fewer tets (0: keep all)

@@ -67,8 +67,9 @@ TEST_CASE("cli: a scene run with 1 and with 2 threads writes byte-identical fram
     ++compared;
   }
   // Frames 0..4 as particle VTU and PLY and surface OBJ and PLY (surfaces by default), plus the .pvd,
-  // mesh.json (compare), surface.mtl and checkpoint.bin (the checkpoint is thread-count independent too).
-  CHECK(compared == 4 * 5 + 4);
+  // mesh.json (compare), surface.mtl and checkpoint.bin (the checkpoint is thread-count independent too),
+  // and the point cache written by default: pieces.csv, animation.obj, animation.pc2, animation.bin.
+  CHECK(compared == 4 * 5 + 4 + 4);
   // No temporary files are left behind.
   for (const auto& entry : fs::directory_iterator(dir / "t1"))
     CHECK(entry.path().filename().string().find(".tmp-") == std::string::npos);
