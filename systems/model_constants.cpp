@@ -24,7 +24,6 @@
 //         damage_alpha).
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <vector>
 
 #include "parallel.hpp"
@@ -33,7 +32,7 @@
 namespace perifx::systems {
 
 namespace {
-constexpr double kSurfaceExponent = 0.2;  // `corrected`: p in (m_i/m_body)^p, calibrated (§2.4)
+constexpr double kSurfaceExponent = 0.3;  // `corrected`: p in (m_i/m_body)^p, calibrated (§2.4)
 }
 
 double critical_stretch_from_energy(double fracture_energy, double kappa, double mu, double horizon) {
@@ -64,8 +63,7 @@ void compute_model_constants(WorldState& w) {
   // volume of the particle's body (a full interior family), §2.4.
   const bool corrected = w.settings.normalization == scene::Normalization::corrected;
   std::vector<double> body_m;
-  double exponent = kSurfaceExponent;
-  if (const char* e = std::getenv("PERIFX_SURFACE_EXPONENT")) exponent = std::atof(e);  // CALIBRATION ONLY
+  const double exponent = kSurfaceExponent;
   if (corrected) {
     std::vector<double> m_i(n, 0.0);
     parallel_for_each(n, [&](std::size_t i) {

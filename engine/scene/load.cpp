@@ -242,7 +242,7 @@ class Converter {
       out.shear_modulus = num(m["shear_modulus"]);
     } else {
       if (!m.contains("youngs_modulus") && !preset)
-        fail(p, "missing keys (got " + show(m) + "; expected either 'bulk_modulus' + 'shear_modulus' or 'youngs_modulus' + "
+        fail(p, "missing keys (got " + show(original_ ? original_->at("materials").at(name) : m) + "; expected either 'bulk_modulus' + 'shear_modulus' or 'youngs_modulus' + "
                 "'poisson_ratio', or a 'preset')");
       const double E = m.contains("youngs_modulus") ? num(m["youngs_modulus"]) : preset->youngs_modulus;
       const double nu = m.contains("poisson_ratio") ? num(m["poisson_ratio"]) : preset->poisson_ratio;
@@ -505,6 +505,12 @@ class Converter {
     return out;
   }
 
+  const Json* original_ = nullptr;  // the scene before validation filled defaults, for messages
+
+ public:
+  void set_original(const Json* j) { original_ = j; }
+
+ private:
   std::string file_;
   fs::path folder_;  // absolute folder of the scene file, for relative mesh paths
   std::vector<std::string> material_names_, body_names_;
@@ -521,8 +527,11 @@ Scene load_scene_text(const std::string& text, const fs::path& file) {
   Json j = parse(text, name);
   const bool formats_given = j.is_object() && j.contains("output") && j["output"].is_object() &&
                              j["output"].contains("formats");
+  const Json original = j;
   detail::validate(j, name);
-  Scene s = Converter(name, fs::absolute(file).parent_path()).run(j, file);
+  Converter converter(name, fs::absolute(file).parent_path());
+  converter.set_original(&original);
+  Scene s = converter.run(j, file);
   s.text = text;
   // Every body is a tet mesh, so scenes write its surface (OBJ + PLY) unless they list their formats:
   // what a renderer draws is the body, not its particles. (FEM runs have no embedded mesh: the

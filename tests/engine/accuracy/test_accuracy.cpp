@@ -74,12 +74,12 @@ TEST_CASE("accuracy: FEM reference convergence (PERIFX_LONG_TESTS=1)" * doctest:
     const Material mat;  // κ 33 MPa, μ 20 MPa (ν 0.248), the cantilever
     const std::string nu_text = "0.248";
     for (Problem p : {Problem::cantilever, Problem::torsion}) {
-      for (int n : {1, 2, 3, 4, 6, 8}) {
+      for (int n : {2, 4, 6, 8}) {  // even: the clamp x ≤ −0.45 falls on a node plane
         const Measure m = solve_fem(p, mat, n, true);
         std::cout << "ACCURACY {\"solver\": \"fem_q10\", \"problem\": \"" << name(p) << "\", \"nu\": " << nu_text
                   << ", \"cells\": " << n << ", \"value\": " << std::setprecision(12) << value(p, m) << "}" << std::endl;
       }
-      for (int n : {2, 3, 4, 6, 8, 12, 16}) {
+      for (int n : {2, 4, 6, 8, 12, 16}) {
         const Measure m = solve_fem(p, mat, n, false);
         std::cout << "ACCURACY {\"solver\": \"fem_t4\", \"problem\": \"" << name(p) << "\", \"nu\": " << nu_text
                   << ", \"cells\": " << n << ", \"value\": " << std::setprecision(12) << value(p, m) << "}" << std::endl;

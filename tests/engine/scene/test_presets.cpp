@@ -96,7 +96,7 @@ TEST_CASE("physical keys: one line errors for mixed or missing keys") {
         "critical_stretch or fracture_energy, not both)");
   CHECK(error_in(with_material(Json::parse(R"({"bulk_modulus": 1e6, "shear_modulus": 1e6, "yield_energy": 1e9,
                                                "yield_stress": 1e5})"))) ==
-        "presets.json: /materials/m/yield_stress: given together with yield_energy (got 100000; expected either "
+        "presets.json: /materials/m/yield_stress: given together with yield_energy (got 100000.0; expected either "
         "yield_energy or yield_stress, not both)");
   CHECK(error_in(with_material(Json::parse(R"({"density": 5})"))).find(
             "presets.json: /materials/m: missing keys (got {\"density\":5}; expected either") == 0);
