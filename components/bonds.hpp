@@ -22,6 +22,9 @@ struct Bonds {
   // gather through `reverse`, and lets each particle update its own slots in place.
   std::vector<double> plastic_extension_mirror;
   std::vector<std::uint32_t> initial_count;  // N_i per particle (Eq 19)
+  // Per-bond multiplier of the break threshold (weak planes, systems/strength_field.cpp); the same
+  // number on k and reverse[k]. Length bonds whenever the world can fracture (1 where no plane).
+  std::vector<float> break_scale;
 
   std::size_t count() const { return neighbor.size(); }
   std::size_t particle_count() const { return offsets.empty() ? 0 : offsets.size() - 1; }

@@ -155,6 +155,7 @@ void for_each_array(W& w, F&& f) {
   f(K::bond, "bonds.reference_length", b.reference_length);
   f(K::bond, "bonds.weight", b.weight);
   f(K::bond, "bonds.alive", b.alive);
+  f(K::bond, "bonds.break_scale", b.break_scale);
   f(K::bond, "bonds.plastic_extension", b.plastic_extension);
   f(K::bond, "bonds.plastic_extension_mirror", b.plastic_extension_mirror);
   f(K::mesh, "mesh.vertices", w.mesh.vertices);

@@ -13,7 +13,7 @@
 // line per particle) that the pass refreshes first.
 // Every write goes to particle i's own bond slots or to particle i: no atomics, independent of thread
 // count (bond_rules.hpp explains why both ends of a bond reach the same plastic and break decisions).
-// Reads:  position, dilatation, plastic_extension, bond_alive, fracture_threshold.
+// Reads:  position, dilatation, plastic_extension, bond_alive, fracture_threshold, bonds.break_scale.
 // Writes: internal_force, plastic_extension, bond_alive, damage, bond_end (its packed far-end copy).
 // Scheduled in every peridynamic step, elastic scenes included, where the separate systems
 // (plasticity) → elastic_force → … → (fracture → damage) would run. It runs before kick_end,
@@ -90,9 +90,10 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
       fz[l] += c * dyz;
       std::uint64_t breaks = 0;
       if constexpr (kFracture) {  // fracture.cpp
+        const double scale = bs.break_scale[k];
         breaks = static_cast<std::uint64_t>(active & (g.extension > 0.0) &
-                                            (side_breaks<kAnisotropic>(g, r, w_ij, ep_ij, side_i) |
-                                             side_breaks<kAnisotropic>(g, r, w_ji, ep_ji, side_j)));
+                                            (side_breaks<kAnisotropic>(g, r, w_ij, ep_ij, side_i, scale) |
+                                             side_breaks<kAnisotropic>(g, r, w_ji, ep_ji, side_j, scale)));
       }
       breaks_lanes[l] = breaks;
       alive_lanes[l] += was_alive & ~breaks;  // damage.cpp (a collapsed bond stays alive)

@@ -139,12 +139,14 @@ inline double side_plastic_extension(const BondGeometry& g, double r, double wei
                         c.plastic_cap * r);
 }
 
-// Fracture of one side of bond k with that side's (new) e^p.
+// Fracture of one side of bond k with that side's (new) e^p; `scale` is the bond's break multiplier
+// (Bonds::break_scale: weak planes, 1 elsewhere, which leaves the limit unchanged bit for bit).
 template <bool kAnisotropic>
 inline bool side_breaks(const BondGeometry& g, double r, double weight, double plastic_extension,
-                        const SideConstants& c) {
+                        const SideConstants& c, double scale) {
   const double length = weighted_length<kAnisotropic>(r, c.horizon, weight);
-  return side_exceeds(g.extension, plastic_extension, break_limit<kAnisotropic>(c.break_extension, r, length));
+  return side_exceeds(g.extension, plastic_extension,
+                      break_limit<kAnisotropic>(c.break_extension, r, length) * scale);
 }
 
 // Lane-strided visit of a family's bonds [begin, end): chunks of kBondLanes consecutive bonds, bond
@@ -205,6 +207,7 @@ struct BondStreams {
   Flag* alive;
   const double* y;
   const double* x;
+  const float* break_scale;  // Bonds::break_scale (null when the world cannot fracture)
 
   // Particle i's end of its bonds, in component form. A lane then forms its bond's vectors as
   // dy = y[3j + c] − o.y_c and ξ = x[3j + c] − o.x_c in the kernel's own body: returned from a helper
@@ -224,7 +227,7 @@ inline BondStreams<!std::is_const_v<BondArrays>> bond_streams(BondArrays& b, con
   static_assert(std::is_same_v<std::remove_const_t<BondArrays>, Bonds>);
   return {b.offsets.data(), b.neighbor.data(), b.reverse.data(), b.reference_length.data(), b.weight.data(),
           b.plastic_extension.data(), b.plastic_extension_mirror.data(), b.alive.data(), y.data()->data(),
-          x.data()->data()};
+          x.data()->data(), b.break_scale.empty() ? nullptr : b.break_scale.data()};
 }
 
 // Runtime model flags to template flags, written once for every bond kernel: calls

@@ -31,8 +31,9 @@ bool breaks(const WorldState& w, const std::vector<Vec3>& y, std::uint32_t i, st
   const double w_ji = kAnisotropic ? b.weight[b.reverse[k]] : w_ij;
   const double ep_ij = w.any_plastic ? b.plastic_extension[k] : 0.0;
   const double ep_ji = w.any_plastic ? b.plastic_extension_mirror[k] : 0.0;
-  return side_breaks<kAnisotropic>(g, r, w_ij, ep_ij, side_constants(w.model, w.state, i)) ||
-         side_breaks<kAnisotropic>(g, r, w_ji, ep_ji, side_constants(w.model, w.state, j));
+  const double scale = b.break_scale.empty() ? 1.0 : double(b.break_scale[k]);
+  return side_breaks<kAnisotropic>(g, r, w_ij, ep_ij, side_constants(w.model, w.state, i), scale) ||
+         side_breaks<kAnisotropic>(g, r, w_ji, ep_ji, side_constants(w.model, w.state, j), scale);
 }
 
 }  // namespace

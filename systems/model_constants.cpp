@@ -9,17 +9,42 @@
 // b = 15μ/(2q); lattice families (e.g. the structured mesher's six tet types) deviate from that by
 // several percent per direction, which the fourth moments capture and q alone does not. In the continuum (ω = δ/r, full ball) m = 4πδ⁴/3 and q = πδ⁵, which gives
 // back the paper's constants exactly.
+//
+// Physical fracture and yield parameters (systems/README.md §12), converted here for each particle's
+// horizon δ (so one scene breaks and yields alike at any resolution):
+//   G_c → s_c = √(G_c / (K δ)),  K = 5μ + (81/80)(κ − 5μ/3)    (energy of the bonds crossing a unit
+//         area when each is at the break extension s_c δ; §12.1)
+//   σ_y → A_c = √(2Ψ0) = σ_y / S_i,  S_i = ½ Σ_j |3 c_a² − 1|/2 |ξ| V_j (mean over axes a, c_a = ξ_a/|ξ|)
+//         (flow stress of the per-bond return under sustained uniaxial plastic flow; §12.2); in the
+//         continuum S = πδ⁴/(3√3) and, with the paper's b, Y = A_c/(b4 δ) = √3 σ_y/(10 μ).
 // Reads:  bonds (weight, reference_length, neighbor), particles.volume, particles.material_id,
 //         model.horizon, scene materials.
 // Writes: model.dilatation_scale, model.a4, model.b4, model.beta, model.damping and the material's
 //         inelastic constants per particle (yield_extension = √(2Ψ0)/(b4 δ), plastic_cap, critical_stretch,
 //         damage_alpha).
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "parallel.hpp"
 #include "systems.hpp"
 
 namespace perifx::systems {
+
+namespace {
+constexpr double kSurfaceExponent = 0.3;  // `corrected`: p in (m_i/m_body)^p, calibrated (§2.4)
+}
+
+double critical_stretch_from_energy(double fracture_energy, double kappa, double mu, double horizon) {
+  if (!std::isfinite(fracture_energy)) return kInfinity;
+  const double k = 5.0 * mu + (81.0 / 80.0) * (kappa - 5.0 * mu / 3.0);  // > 0 for any κ, μ > 0
+  return std::sqrt(fracture_energy / (k * horizon));
+}
+
+double yield_extension_from_stress(double yield_stress, double mu) {
+  if (!std::isfinite(yield_stress)) return kInfinity;
+  return std::sqrt(3.0) * yield_stress / (10.0 * mu);
+}
 
 void compute_model_constants(WorldState& w) {
   const std::size_t n = w.particles.count();
@@ -33,7 +58,28 @@ void compute_model_constants(WorldState& w) {
   md.plastic_cap.resize(n);
   md.critical_stretch.resize(n);
   md.damage_alpha.resize(n);
-  const bool discrete = w.settings.normalization == scene::Normalization::discrete;
+  const bool discrete = w.settings.normalization != scene::Normalization::paper;
+  // `corrected`: the discrete constants a, b scaled by (m_i / m_body)^p, m_body the largest weighted
+  // volume of the particle's body (a full interior family), §2.4.
+  const bool corrected = w.settings.normalization == scene::Normalization::corrected;
+  std::vector<double> body_m;
+  const double exponent = kSurfaceExponent;
+  if (corrected) {
+    std::vector<double> m_i(n, 0.0);
+    parallel_for_each(n, [&](std::size_t i) {
+      double m = 0.0;
+      for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) {
+        const double r = w.bonds.reference_length[k];
+        m += w.bonds.weight[k] * r * w.particles.volume[w.bonds.neighbor[k]];
+      }
+      m_i[i] = m;
+    });
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t b = w.particles.body_id[i];
+      if (body_m.size() <= b) body_m.resize(b + 1, 0.0);
+      body_m[b] = std::max(body_m[b], m_i[i]);
+    }
+  }
   parallel_for_each(n, [&](std::size_t i) {
     const auto& mat = w.settings.materials[w.particles.material_id[i]];
     const double delta = md.horizon[i];
@@ -56,6 +102,11 @@ void compute_model_constants(WorldState& w) {
         a = 1.5 * kappa / m;
         beta = q / (3.0 * m);
         b = mu / (2.0 * shear_moment);
+        if (corrected) {
+          const double f = std::pow(m / body_m[w.particles.body_id[i]], exponent);
+          a *= f;
+          b *= f;
+        }
       } else {  // an isolated particle carries no elastic force
         scale = a = b = beta = 0.0;
       }
@@ -72,10 +123,30 @@ void compute_model_constants(WorldState& w) {
     md.beta[i] = beta;
     md.damping[i] = mat.damping;
     // Ψ0 = ∞ or b4 = 0 (an isolated particle) give ∞: never yields.
-    const double yield_ext = std::sqrt(2.0 * mat.yield_energy) / (4.0 * b * delta);
-    md.yield_extension[i] = std::isnan(yield_ext) ? kInfinity : yield_ext;
+    if (mat.yield_stress > 0.0) {
+      // A_c = σ_y / S_i with S_i = ½ Σ_j |3 (ξ_a/|ξ|)² − 1|/2 |ξ| V_j averaged over the axes a: the
+      // family's own flow-stress sum (§12.2), which is πδ⁴/(3√3) in the continuum (Y = √3σ_y/(10μ)).
+      double flow_sum = 0.0;
+      const Vec3& xi = w.particles.reference_position[i];
+      for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) {
+        const std::uint32_t j = w.bonds.neighbor[k];
+        const double r = w.bonds.reference_length[k];
+        const Vec3 c2 = (w.particles.reference_position[j] - xi).cwiseAbs2() / (r * r);
+        flow_sum += (std::abs(3.0 * c2.x() - 1.0) + std::abs(3.0 * c2.y() - 1.0) + std::abs(3.0 * c2.z() - 1.0)) *
+                    r * w.particles.volume[j];
+      }
+      flow_sum /= 12.0;  // ½ · ½ · (mean of three axes)
+      const double a_c = mat.yield_stress / flow_sum;
+      md.yield_extension[i] =
+          b > 0.0 && flow_sum > 0.0 && std::isfinite(mat.yield_stress) ? a_c / (4.0 * b * delta) : kInfinity;
+    } else {
+      const double yield_ext = std::sqrt(2.0 * mat.yield_energy) / (4.0 * b * delta);
+      md.yield_extension[i] = std::isnan(yield_ext) ? kInfinity : yield_ext;
+    }
     md.plastic_cap[i] = mat.plastic_cap_ratio;
-    md.critical_stretch[i] = mat.critical_stretch;
+    md.critical_stretch[i] = mat.fracture_energy > 0.0
+                                 ? critical_stretch_from_energy(mat.fracture_energy, kappa, mu, delta)
+                                 : mat.critical_stretch;
     md.damage_alpha[i] = mat.damage_alpha;
   });
 }

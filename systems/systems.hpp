@@ -20,6 +20,14 @@ void build_families(WorldState& world, const std::vector<std::array<std::int32_t
 std::size_t remove_cracked_bonds(WorldState& world, const std::vector<scene::Crack>& cracks);
 // model_constants.cpp: per-particle a, b, θ scale and β for the paper or discrete normalization.
 void compute_model_constants(WorldState& world);
+// Physical parameters → model values (systems/README.md §12): s_c for a fracture energy G_c (J/m²)
+// at horizon δ, and the yield extension Y for a yield stress σ_y (Pa). ∞ in gives ∞ out.
+double critical_stretch_from_energy(double fracture_energy, double kappa, double mu, double horizon);
+double yield_extension_from_stress(double yield_stress, double mu);
+// Spatially varying strength (strength_field.cpp): scales model.critical_stretch per particle and fills
+// bonds.break_scale; after compute_model_constants, before compute_fracture_thresholds.
+void apply_strength_field(WorldState& world);
+double strength_noise(const Vec3& x, double feature_size, std::uint64_t seed);  // in [−1, 1]
 // contact.cpp / projectiles.cpp: resolve the scene's contact settings and projectiles, size buffers.
 void setup_contact(WorldState& world);
 void setup_projectiles(WorldState& world);

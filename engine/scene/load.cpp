@@ -15,6 +15,7 @@
 
 #include "perifx/scene.hpp"
 #include "systems/field_registry.hpp"
+#include "scene/presets.hpp"
 #include "scene/schema.hpp"
 
 namespace fs = std::filesystem;
@@ -158,7 +159,9 @@ class Converter {
                            "; expected at most duration = " + show(t["duration"]) + ")");
     check_time(s);
 
-    s.normalization = j["model"]["normalization"] == "paper" ? Normalization::paper : Normalization::discrete;
+    s.normalization = j["model"]["normalization"] == "paper"      ? Normalization::paper
+                      : j["model"]["normalization"] == "discrete" ? Normalization::discrete
+                                                                  : Normalization::corrected;
     s.family = j["model"]["family"] == "mesh" ? FamilyRule::mesh : FamilyRule::distance;
     {
       const std::string solver = j["model"]["solver"].get<std::string>();
@@ -179,6 +182,15 @@ class Converter {
       if (std::find(body_names_.begin(), body_names_.end(), name) != body_names_.end())
         fail(p + "/name", "duplicate body name (got " + show(Json(name)) + "; expected a name not used by another body)");
       body_names_.push_back(name);
+    }
+    {
+      std::size_t index = 0;
+      for (const auto& [name, m] : j["materials"].items()) {
+        if (name.front() == '_') continue;
+        if (m.contains("strength"))
+          s.materials[index].strength = strength(m["strength"], child_pointer("/materials", name) + "/strength");
+        ++index;
+      }
     }
 
     const Json& conditions = j["boundary_conditions"];
@@ -266,12 +278,21 @@ class Converter {
   Material material(const std::string& name, const Json& m, const std::string& p) const {
     Material out;
     out.name = name;
-    out.density = num(m["density"]);
+    const detail::MaterialPreset* preset = nullptr;
+    if (m.contains("preset")) {
+      out.preset = m["preset"].get<std::string>();
+      preset = detail::find_preset(out.preset);  // the spec's choice list guarantees it exists
+    }
+    out.density = m.contains("density") ? num(m["density"]) : preset ? preset->density : 1000.0;
     if (m.contains("bulk_modulus")) {
       out.bulk_modulus = num(m["bulk_modulus"]);
       out.shear_modulus = num(m["shear_modulus"]);
     } else {
-      const double E = num(m["youngs_modulus"]), nu = num(m["poisson_ratio"]);
+      if (!m.contains("youngs_modulus") && !preset)
+        fail(p, "missing keys (got " + show(original_ ? original_->at("materials").at(name) : m) + "; expected either 'bulk_modulus' + 'shear_modulus' or 'youngs_modulus' + "
+                "'poisson_ratio', or a 'preset')");
+      const double E = m.contains("youngs_modulus") ? num(m["youngs_modulus"]) : preset->youngs_modulus;
+      const double nu = m.contains("poisson_ratio") ? num(m["poisson_ratio"]) : preset->poisson_ratio;
       out.bulk_modulus = E / (3.0 * (1.0 - 2.0 * nu));
       out.shear_modulus = E / (2.0 * (1.0 + nu));
     }
@@ -280,9 +301,28 @@ class Converter {
     if (!(wave <= kMaxWaveSpeed))
       fail(p, "moduli too stiff for the density (got a wave speed sqrt((K + 4G/3)/density) of " +
                   std::to_string(wave) + " m/s; expected at most 1e6 m/s)");
-    out.yield_energy = num(m["yield_energy"]);
-    out.plastic_cap_ratio = num(m["plastic_cap_ratio"]);
-    out.critical_stretch = num(m["critical_stretch"]);
+    // Fracture: critical_stretch (model units) or fracture_energy (J/m², converted per horizon), not both.
+    if (m.contains("critical_stretch") && m.contains("fracture_energy"))
+      fail(p + "/fracture_energy", "given together with critical_stretch (got " + show(m["fracture_energy"]) +
+                                       "; expected either critical_stretch or fracture_energy, not both)");
+    const double g_c = m.contains("fracture_energy") ? num(m["fracture_energy"])
+                       : m.contains("critical_stretch") || !preset ? 0.0
+                                                                   : preset->fracture_energy;
+    if (m.contains("critical_stretch")) out.critical_stretch = num(m["critical_stretch"]);
+    else if (std::isfinite(g_c) && g_c > 0.0) out.fracture_energy = g_c;  // ∞: stays unbreakable
+    // Yield: yield_energy (model units) or yield_stress (Pa, converted per horizon), not both.
+    if (m.contains("yield_energy") && m.contains("yield_stress"))
+      fail(p + "/yield_stress", "given together with yield_energy (got " + show(m["yield_stress"]) +
+                                    "; expected either yield_energy or yield_stress, not both)");
+    const double sigma_y = m.contains("yield_stress") ? num(m["yield_stress"])
+                           : m.contains("yield_energy") || !preset ? 0.0
+                                                                   : preset->yield_stress;
+    if (m.contains("yield_energy")) out.yield_energy = num(m["yield_energy"]);
+    else if (std::isfinite(sigma_y) && sigma_y > 0.0) out.yield_stress = sigma_y;
+    // A physical yield stress means perfect plasticity unless the scene caps it.
+    out.plastic_cap_ratio = m.contains("plastic_cap_ratio") ? num(m["plastic_cap_ratio"])
+                            : out.yield_stress > 0.0         ? kInfinity
+                                                             : 0.0;
     out.damage_alpha = num(m["damage_alpha"]);
     out.damping = num(m["damping"]);
     if (m.contains("anisotropy")) {
@@ -305,6 +345,30 @@ class Converter {
                              ? Mat3(ratio_along * Mat3::Identity())
                              : Mat3(ratio_along * along + ratio_across * (Mat3::Identity() - along));
       }
+    } else if (preset && preset->grain_ratio != 1.0) {  // wood: the grain along x
+      const Mat3 along = Vec3::UnitX() * Vec3::UnitX().transpose();
+      out.anisotropy = preset->grain_ratio * along + (Mat3::Identity() - along);
+    }
+    return out;
+  }
+
+  // /materials/<name>/strength; read after the bodies, whose names its regions may use.
+  StrengthField strength(const Json& st, const std::string& p) const {
+    StrengthField out;
+    const Json& regions = st["regions"];
+    for (std::size_t i = 0; i < regions.size(); ++i) {
+      const std::string rp = p + "/regions/" + std::to_string(i);
+      out.regions.push_back({region(regions[i]["region"], rp + "/region"), num(regions[i]["factor"])});
+    }
+    if (st.contains("noise")) {
+      out.noise_amplitude = num(st["noise"]["amplitude"]);
+      out.noise_feature_size = num(st["noise"]["feature_size"]);
+      out.noise_seed = st["noise"]["seed"].get<std::uint64_t>();
+    }
+    const Json& planes = st["weak_planes"];
+    for (std::size_t i = 0; i < planes.size(); ++i) {
+      const std::string wp = p + "/weak_planes/" + std::to_string(i);
+      out.weak_planes.push_back({crack(planes[i], wp + "/polygon").polygon, num(planes[i]["factor"])});
     }
     return out;
   }
@@ -574,6 +638,12 @@ class Converter {
     return out;
   }
 
+  const Json* original_ = nullptr;  // the scene before validation filled defaults, for messages
+
+ public:
+  void set_original(const Json* j) { original_ = j; }
+
+ private:
   std::string file_;
   fs::path folder_;  // absolute folder of the scene file, for relative mesh paths
   std::vector<std::string> material_names_, body_names_;
@@ -609,13 +679,20 @@ void check_time(const Scene& s, std::uint64_t frames_override) {
                                            " s)");
 }
 
+static bool material_can_break(const Material& m) {
+  return std::isfinite(m.critical_stretch) || (m.fracture_energy > 0.0 && std::isfinite(m.fracture_energy));
+}
+
 Scene load_scene_text(const std::string& text, const fs::path& file) {
   const std::string name = file.string();
   Json j = parse(text, name);
   const bool formats_given = j.is_object() && j.contains("output") && j["output"].is_object() &&
                              j["output"].contains("formats");
+  const Json original = j;
   detail::validate(j, name);
-  Scene s = Converter(name, fs::absolute(file).parent_path()).run(j, file);
+  Converter converter(name, fs::absolute(file).parent_path());
+  converter.set_original(&original);
+  Scene s = converter.run(j, file);
   s.text = text;
   // Every body is a tet mesh, so scenes write its surface (OBJ + PLY) unless they list their formats:
   // what a renderer draws is the body, not its particles. (FEM runs have no embedded mesh: the
@@ -626,7 +703,7 @@ Scene load_scene_text(const std::string& text, const fs::path& file) {
   }
   for (Body& b : s.bodies)
     if (b.geometry.jitter < 0.0)
-      b.geometry.jitter = std::isfinite(s.materials[static_cast<std::size_t>(b.material)].critical_stretch) ? 0.3 : 0.0;
+      b.geometry.jitter = material_can_break(s.materials[static_cast<std::size_t>(b.material)]) ? 0.3 : 0.0;
   return s;
 }
 

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "perifx/scene.hpp"
+#include "scene/presets.hpp"
 #include "systems/field_registry.hpp"
 
 namespace perifx::scene::detail {
@@ -78,19 +79,36 @@ const std::vector<std::string> kMeshers = {"box", "sphere", "cylinder", "surface
 
 Key build_spec() {
   Key material = nested("materials", Type::map, "material",
-      "Named materials; bodies refer to them by name (names cannot start with `_`).", {
-      number("density", "Mass density ρ, kg/m³.").ge(1e-3).le(1e6).def(1000),
+      "Named materials; bodies refer to them by name (names cannot start with `_`). Give the moduli "
+      "(`bulk_modulus` + `shear_modulus`, or `youngs_modulus` + `poisson_ratio`), or a `preset`.", {
+      choice("preset", preset_names(),
+             "Real-world values (see Material presets below): fills density, moduli, fracture_energy, yield_stress "
+             "and, for wood, the grain anisotropy; every other key given in this material overrides the preset's "
+             "value (a moduli pair replaces both moduli; critical_stretch replaces fracture_energy, yield_energy "
+             "replaces yield_stress)."),
+      number("density", "Mass density ρ, kg/m³.").ge(1e-3).le(1e6).def_text("1000, or the preset's"),
       number("bulk_modulus", "Bulk modulus κ, Pa.").gt(0),
       number("shear_modulus", "Shear modulus μ, Pa.").gt(0),
       number("youngs_modulus", "Young's modulus E, Pa. With ν: κ = E/(3(1−2ν)), μ = E/(2(1+ν)).").gt(0),
       number("poisson_ratio", "Poisson's ratio ν.").gt(-1).lt(0.5),
-      number("yield_energy", "Plastic yield energy Ψ0 (Eq 13); \"inf\" = purely elastic.")
-          .gt(0).or_inf().def("inf"),
-      number("plastic_cap_ratio", "Plastic cap γ/|ξ| (Eq 16).").ge(0).def(0),
-      number("critical_stretch", "Critical bond stretch s_c (Eq 19); \"inf\" = unbreakable.")
-          .gt(0).or_inf().def("inf"),
+      number("yield_energy", "Plastic yield energy Ψ0 (Eq 13), in model units that depend on the horizon; "
+                             "\"inf\" = purely elastic. Prefer `yield_stress`. Not with `yield_stress`.")
+          .gt(0).or_inf().def_text("\"inf\" (or from `yield_stress`)"),
+      number("yield_stress", "Yield stress σ_y, Pa (uniaxial tension flow stress); perifx derives the yield "
+                             "parameter for each body's horizon, so the material yields at σ_y at any "
+                             "resolution (systems/README.md §12). \"inf\" = purely elastic. Not with `yield_energy`.")
+          .gt(0).or_inf(),
+      number("plastic_cap_ratio", "Plastic cap γ/|ξ| (Eq 16); \"inf\" = no cap.").ge(0).or_inf()
+          .def_text("0 (no plastic flow), or \"inf\" when the yield comes from `yield_stress` or a preset"),
+      number("critical_stretch", "Critical bond stretch s_c (Eq 19), in model units that depend on the horizon; "
+                                 "\"inf\" = unbreakable. Prefer `fracture_energy`. Not with `fracture_energy`.")
+          .gt(0).or_inf().def_text("\"inf\" (or from `fracture_energy`)"),
+      number("fracture_energy", "Fracture energy G_c, J/m² (energy per unit area of new crack); perifx derives s_c "
+                                "for each body's horizon, so the same scene breaks at the same load at any "
+                                "resolution (systems/README.md §12). \"inf\" = unbreakable. Not with `critical_stretch`.")
+          .gt(0).or_inf(),
       number("damage_alpha", "Damage parameter α (Eq 19).").ge(0).def(0),
-      object("anisotropy", "anisotropy", "Anisotropy tensor G (Eq 17); omitted = identity.", {
+      object("anisotropy", "anisotropy", "Anisotropy tensor G (Eq 17); omitted = identity (wood preset: grain along x).", {
           mat3("matrix", "G itself, as rows; must be invertible."),
           vec3("axis", "Direction a (normalized on load): "
                        "G = ratio_along·a aᵀ + ratio_across·(I − a aᵀ).").not_zero(),
@@ -98,7 +116,28 @@ Key build_spec() {
           number("ratio_across", "Factor across `axis`.").gt(0).def(1),
       }).one_of({{"matrix"}, {"axis", "ratio_along", "ratio_across"}}, false),
       number("damping", "Mass-proportional velocity damping, 1/s; 0 = none.").ge(0).def(0),
-  }).one_of({{"bulk_modulus", "shear_modulus"}, {"youngs_modulus", "poisson_ratio"}}, true);
+      object("strength", "strength",
+             "Spatially varying strength (systems/README.md §12.4): the break threshold s_c is multiplied by "
+             "each `regions` factor whose region holds the particle and by 1 + amplitude·n(x) (seeded value "
+             "noise, n in [−1, 1]); bonds crossing a `weak_planes` polygon break at `factor` times their "
+             "threshold. Only meaningful for a breakable material.", {
+          nested("regions", Type::array, "strength region", "Regions with a strength multiplier.", {
+              region_key("Where the factor applies, tested on reference positions (after the body transform).").req(),
+              number("factor", "Multiplier of s_c for particles in the region.").gt(0).req(),
+          }).def(Json::array()),
+          object("noise", "noise", "Seeded 3D value noise on s_c; the same seed gives the same bits.", {
+              number("amplitude", "s_c × (1 + amplitude·n(x)), n in [−1, 1].").ge(0).lt(1).req(),
+              number("feature_size", "Noise lattice spacing, m.").gt(0).req(),
+              integer("seed", "Noise seed.").ge(0).def(1),
+          }),
+          nested("weak_planes", Type::array, "weak plane",
+                 "Planar polygons: bonds whose reference segment crosses one keep `factor` of their strength "
+                 "(an initial crack with factor 0 would remove them; see `cracks`).", {
+              points("polygon", "Vertices of a planar polygon, m, in order around its boundary.").at_least(3).req(),
+              number("factor", "Multiplier of the crossing bonds' s_c.").gt(0).le(1).req(),
+          }).def(Json::array()),
+      }),
+  }).one_of({{"bulk_modulus", "shear_modulus"}, {"youngs_modulus", "poisson_ratio"}}, false);
 
   Key body = nested("bodies", Type::array, "body", "The deformable bodies.", {
       text("name", "Unique body name.").def_text("`\"body<k>\"`, k = index in `bodies`"),
@@ -129,7 +168,7 @@ Key build_spec() {
           number("jitter", "Random offset of the structured mesh's vertices, as a fraction of each vertex's "
                            "shortest edge (boundary vertices slide within their flat face). Removes the "
                            "grid's preferred crack directions. Omitted: 0.3 when the body's material can "
-                           "break (finite critical_stretch), else 0.").ge(0).le(0.4).only({"box", "sphere", "cylinder"}),
+                           "break (finite critical_stretch or fracture_energy), else 0.").ge(0).le(0.4).only({"box", "sphere", "cylinder"}),
           integer("seed", "Seed of the jitter: the same seed gives the same mesh, bit for bit.")
               .ge(0).def(1).only({"box", "sphere", "cylinder"}),
       }).one_of({{"edge_length"}, {"resolution"}, {"particles"}}, false).req(),
@@ -254,7 +293,7 @@ Key build_spec() {
       "stays stable at the scene's dt (k·dt²/m ≪ 1); it also damps the normal approach and applies "
       "Coulomb friction.", {
       key("enabled", Type::boolean, "Whether contact runs.")
-          .def_text("true when there are at least 2 bodies or a material has a finite `critical_stretch`"),
+          .def_text("true when there are at least 2 bodies or a material can break (finite `critical_stretch` or `fracture_energy`)"),
       number("distance_factor", "Contact distance d_c as a multiple of the mean particle size ∛V.")
           .gt(0).le(3).def(0.9),
       number("stiffness_factor", "k·dt²/min(m_i, m_j); small keeps the explicit step stable.")
@@ -297,8 +336,9 @@ Key build_spec() {
                                "at most 1e6 frames in `duration`.").gt(0).def(24),
       }).req(),
       object("model", "model", "Peridynamic model options.", {
-          choice("normalization", {"paper", "discrete"},
-                 "Normalization: the paper's constants, or per-particle discrete sums.").def("paper"),
+          choice("normalization", {"paper", "discrete", "corrected"},
+                 "Normalization (systems/README.md §2.4): the paper's constants (Eq 6, 10), per-particle "
+                 "discrete sums, or the discrete sums with a surface correction.").def("paper"),
           choice("family", {"mesh", "distance"},
                  "Bond family: distance plus mesh face-connectivity, or distance only.").def("mesh"),
           choice("solver", {"peridynamics", "fem_linear", "fem_corotated"},
@@ -919,6 +959,24 @@ material name, `<k>` for an array index.
     for (char c : f.info.doc) doc += c == '|' ? std::string("\\|") : std::string(1, c);  // markdown cell
     md << "| `" << f.info.name << "` | " << type << " | " << f.info.components << " | " << f.info.unit << " | "
        << doc << (f.derived ? " (derived on output)" : "") << " |\n";
+  }
+  md << "\n## Material presets\n\n`/materials/<name>/preset` fills these values (keys given beside it win). "
+        "G_c is `fracture_energy`, σ_y `yield_stress` (\"inf\": elastic up to fracture; with a finite σ_y the "
+        "plastic cap defaults to \"inf\"). Handbook values of a material class, rounded, room temperature and "
+        "quasi-static; not a particular grade. The stable time step scales with √(ρ/E)·λ: stiff presets "
+        "(steel, ceramic) need small steps (`perifx info` prints the limit).\n\n"
+        "| preset | ρ (kg/m³) | E (Pa) | ν | G_c (J/m²) | σ_y (Pa) | anisotropy | source |\n|---|---|---|---|---|---|---|---|\n";
+  for (const auto& p : detail::material_presets()) {
+    auto num = [](double x) {
+      std::ostringstream o;
+      o << std::setprecision(6) << x;
+      return std::isfinite(x) ? o.str() : std::string("inf");
+    };
+    md << "| `" << p.name << "` | " << num(p.density) << " | " << num(p.youngs_modulus) << " | " << num(p.poisson_ratio)
+       << " | " << num(p.fracture_energy) << " | " << num(p.yield_stress) << " | "
+       << (p.grain_ratio != 1.0 ? "grain along x: axis [1, 0, 0], ratio_along " + num(p.grain_ratio) + ", ratio_across 1"
+                                : std::string("—"))
+       << " | " << cell(p.source) << " |\n";
   }
   return md.str();
 }

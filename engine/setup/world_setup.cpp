@@ -64,17 +64,18 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   w.clock.dt = scene.time.dt;
   resolve_settings(scene, w.settings);
   for (const auto& m : scene.materials) {
-    w.any_plastic = w.any_plastic || std::isfinite(m.yield_energy);
+    w.any_plastic = w.any_plastic || std::isfinite(m.yield_energy) || (m.yield_stress > 0.0 && std::isfinite(m.yield_stress));
     w.any_anisotropic = w.any_anisotropic || m.anisotropy != Mat3::Identity();
-    w.any_fracture = w.any_fracture || std::isfinite(m.critical_stretch);
+    w.any_fracture = w.any_fracture || std::isfinite(m.critical_stretch) ||
+                     (m.fracture_energy > 0.0 && std::isfinite(m.fracture_energy));
   }
 
   // FEM mode (components/fem.hpp): the particles are the mesh vertices; elastic materials only.
   const bool fem = scene.solver != scene::Solver::peridynamics;
   if (fem && (w.any_plastic || w.any_fracture))
     throw scene::SceneError(scene.source.string(), "/model/solver",
-                            "the FEM reference solver is elastic only (got a material with a finite yield_energy or "
-                            "critical_stretch; expected solver 'peridynamics')");
+                            "the FEM reference solver is elastic only (got a material with a finite yield_energy, "
+                            "yield_stress, critical_stretch or fracture_energy; expected solver 'peridynamics')");
   if (fem && !scene.cracks.empty())
     throw scene::SceneError(scene.source.string(), "/model/solver",
                             "initial cracks need the peridynamic solver (got an FEM solver; expected 'peridynamics')");
@@ -110,6 +111,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     systems::remove_cracked_bonds(w, scene.cracks);
     systems::setup_embedded_mesh(w, adjacency);  // after the bonds: a face pair without one starts cracked
     systems::compute_model_constants(w);
+    systems::apply_strength_field(w);
     systems::compute_fracture_thresholds(w);
     // Initial acceleration for the first kick of velocity Verlet.
     systems::compute_dilatation(w, p.position, w.state.dilatation, w.state.dilatation_coupling);

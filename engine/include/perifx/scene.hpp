@@ -14,11 +14,43 @@
 
 namespace perifx::scene {
 
-enum class Normalization { paper, discrete };  // systems/README.md §2.4: paper constants, or per-particle discrete sums
+enum class Normalization { paper, discrete, corrected };  // systems/README.md §2.4: paper constants, per-particle discrete sums, or discrete with a surface correction
 enum class FamilyRule { mesh, distance };  // systems/README.md §6.2: distance + face-connectivity, or distance only
 // peridynamics: the paper's model (particles at tet barycenters). fem_*: reference FEM on the same
 // tet mesh, particles at the mesh vertices (components/fem.hpp).
 enum class Solver { peridynamics, fem_linear, fem_corotated };
+
+// A region of particles, tested on reference positions (after the body transform).
+struct Region {
+  enum class Kind { all, box, sphere, halfspace };
+  Kind kind = Kind::all;
+  Vec3 min = Vec3::Zero(), max = Vec3::Zero();   // box
+  Vec3 center = Vec3::Zero();                    // sphere
+  double radius = 0.0;                           // sphere
+  Vec3 point = Vec3::Zero(), normal = Vec3::UnitY();  // halfspace: particles with (x − point)·normal ≥ 0
+  int body = -1;                                 // restrict to one body (index), −1 = any body
+};
+
+// Spatially varying strength of a material (issue 12 item 6): the break threshold s_c of a particle
+// is multiplied by every region factor that contains it and by 1 + amplitude·n(x/feature_size), n a
+// seeded value noise in [−1, 1]; bonds whose reference segment crosses a weak-plane polygon break at
+// `factor` times their threshold (systems/strength_field.cpp).
+struct StrengthRegion {
+  Region region;
+  double factor = 1.0;                 // multiplier of s_c (> 0)
+};
+struct WeakPlane {
+  std::vector<Vec3> polygon;           // planar polygon, m (validated like a crack)
+  double factor = 0.5;                 // multiplier of s_c of the bonds crossing it, in (0, 1]
+};
+struct StrengthField {
+  std::vector<StrengthRegion> regions;
+  double noise_amplitude = 0.0;        // in [0, 1): s_c × (1 + amplitude·n(x)), n in [−1, 1]
+  double noise_feature_size = 0.0;     // m, lattice spacing of the value noise (0 = no noise)
+  std::uint64_t noise_seed = 1;
+  std::vector<WeakPlane> weak_planes;
+  bool empty() const { return regions.empty() && !(noise_amplitude > 0.0) && weak_planes.empty(); }
+};
 
 struct Material {
   std::string name;
@@ -28,6 +60,12 @@ struct Material {
   double yield_energy = kInfinity;     // Ψ0 (Eq 13); ∞ = purely elastic
   double plastic_cap_ratio = 0.0;      // γ/|ξ| (Eq 16)
   double critical_stretch = kInfinity; // s_c (Eq 19); ∞ = unbreakable
+  // Physical alternatives (systems/README.md §12): when > 0 they replace critical_stretch / yield_energy,
+  // converted per particle for its horizon by compute_model_constants.
+  double fracture_energy = 0.0;        // G_c, J/m² (0: use critical_stretch)
+  double yield_stress = 0.0;           // σ_y, Pa (0: use yield_energy); +∞ = purely elastic
+  std::string preset;                  // the `preset` it was filled from ("" = none), for messages
+  StrengthField strength;              // spatial variation of s_c (empty = uniform)
   double damage_alpha = 0.0;           // α (Eq 19, systems/README.md §5 reading)
   Mat3 anisotropy = Mat3::Identity();  // G (Eq 17)
   double damping = 0.0;                // mass-proportional velocity damping, 1/s (0 = none)
@@ -63,17 +101,6 @@ struct Body {
   Vec3 angular_velocity = Vec3::Zero();// initial, rad/s about the body's reference centroid
   double horizon_factor = 1.45;        // δ = factor·λ (λ = mean edge length of the tet mesh)
   double horizon_length = 0.0;         // δ in metres; when > 0 it overrides horizon_factor
-};
-
-// A region of particles, tested on reference positions (after the body transform).
-struct Region {
-  enum class Kind { all, box, sphere, halfspace };
-  Kind kind = Kind::all;
-  Vec3 min = Vec3::Zero(), max = Vec3::Zero();   // box
-  Vec3 center = Vec3::Zero();                    // sphere
-  double radius = 0.0;                           // sphere
-  Vec3 point = Vec3::Zero(), normal = Vec3::UnitY();  // halfspace: particles with (x − point)·normal ≥ 0
-  int body = -1;                                 // restrict to one body (index), −1 = any body
 };
 
 // Time window with a linear ramp: strength 0 before `start`, rising linearly to 1 over `ramp`

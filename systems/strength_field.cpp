@@ -1,0 +1,112 @@
+// Spatially varying strength (systems/README.md §12.4), a setup pass after the model constants and
+// before the first fracture thresholds. For particle i of material m:
+//   s_c,i ← s_c,i · Π_{regions of m holding x_i} factor · (1 + A·n(x_i/ℓ, seed)),
+// n a 3D value noise in [−1, 1]: pseudo-random values at the integer lattice points (a hash of the
+// point and the seed, so the same seed gives the same bits on any thread count and platform with
+// IEEE doubles), blended with smoothstep weights. For every bond whose reference segment crosses a
+// weak-plane polygon of either end's material, Bonds::break_scale = the smallest such factor (1
+// elsewhere): the break test of both sides compares with that fraction of its limit (bond_rules.hpp
+// side_breaks). Weak planes use the crossing test of initial cracks (planar_polygon.hpp).
+// Reads:  particles (reference_position, material_id, body_id), bonds (offsets, neighbor, reverse),
+//         scene materials' strength.
+// Writes: model.critical_stretch (scaled), bonds.break_scale (allocated when any_fracture).
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include "parallel.hpp"
+#include "planar_polygon.hpp"
+#include "systems.hpp"
+
+namespace perifx::systems {
+namespace {
+
+std::uint64_t mix(std::uint64_t z) {  // splitmix64 finalizer
+  z += 0x9e3779b97f4a7c15ull;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+
+double lattice_value(std::int64_t x, std::int64_t y, std::int64_t z, std::uint64_t seed) {
+  std::uint64_t h = mix(seed);
+  h = mix(h ^ static_cast<std::uint64_t>(x));
+  h = mix(h ^ static_cast<std::uint64_t>(y));
+  h = mix(h ^ static_cast<std::uint64_t>(z));
+  return double(h >> 11) * (2.0 / 9007199254740992.0) - 1.0;  // [−1, 1)
+}
+
+double smooth(double t) { return t * t * (3.0 - 2.0 * t); }
+
+bool holds(const scene::Region& region, const Vec3& x, int body) {
+  if (region.body >= 0 && region.body != body) return false;
+  switch (region.kind) {
+    case scene::Region::Kind::all: return true;
+    case scene::Region::Kind::box: return (x.array() >= region.min.array()).all() && (x.array() <= region.max.array()).all();
+    case scene::Region::Kind::sphere: return (x - region.center).squaredNorm() <= region.radius * region.radius;
+    case scene::Region::Kind::halfspace: return (x - region.point).dot(region.normal) >= 0.0;
+  }
+  return false;
+}
+
+}  // namespace
+
+double strength_noise(const Vec3& x, double feature_size, std::uint64_t seed) {
+  const Vec3 p = x / feature_size;
+  const double fx = std::floor(p.x()), fy = std::floor(p.y()), fz = std::floor(p.z());
+  const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy), iz = static_cast<std::int64_t>(fz);
+  const double tx = smooth(p.x() - fx), ty = smooth(p.y() - fy), tz = smooth(p.z() - fz);
+  double v = 0.0;
+  for (int c = 0; c < 8; ++c) {
+    const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
+    const double wgt = (dx ? tx : 1.0 - tx) * (dy ? ty : 1.0 - ty) * (dz ? tz : 1.0 - tz);
+    v += wgt * lattice_value(ix + dx, iy + dy, iz + dz, seed);
+  }
+  return v;
+}
+
+void apply_strength_field(WorldState& w) {
+  const auto& mats = w.settings.materials;
+  const auto& p = w.particles;
+  const std::size_t n = p.count();
+  parallel_for_each(n, [&](std::size_t i) {
+    const auto& st = mats[p.material_id[i]].strength;
+    if (st.empty()) return;
+    double f = 1.0;
+    for (const auto& r : st.regions)
+      if (holds(r.region, p.reference_position[i], p.body_id[i])) f *= r.factor;
+    if (st.noise_amplitude > 0.0 && st.noise_feature_size > 0.0)
+      f *= 1.0 + st.noise_amplitude * strength_noise(p.reference_position[i], st.noise_feature_size, st.noise_seed);
+    w.model.critical_stretch[i] *= f;
+  });
+
+  Bonds& b = w.bonds;
+  if (!w.any_fracture) {
+    b.break_scale.clear();
+    return;
+  }
+  b.break_scale.assign(b.count(), 1.0f);
+  // Prepared polygons per material (most materials have none).
+  std::vector<std::vector<std::pair<PlanarPolygon, double>>> planes(mats.size());
+  bool any = false;
+  for (std::size_t m = 0; m < mats.size(); ++m)
+    for (const auto& wp : mats[m].strength.weak_planes) {
+      planes[m].emplace_back(prepare_polygon(wp.polygon), wp.factor);
+      any = true;
+    }
+  if (!any) return;
+  const auto& x = p.reference_position;
+  parallel_for_each(n, [&](std::size_t i) {  // each pair decided by its lower index, written to both slots
+    for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
+      const std::uint32_t j = b.neighbor[k];
+      if (j < i) continue;
+      double factor = 1.0;
+      for (const std::uint16_t m : {p.material_id[i], p.material_id[j]})
+        for (const auto& [poly, f] : planes[m])
+          if (f < factor && crosses(poly, x[i], x[j])) factor = f;
+      if (factor < 1.0) b.break_scale[k] = b.break_scale[b.reverse[k]] = static_cast<float>(factor);
+    }
+  });
+}
+
+}  // namespace perifx::systems

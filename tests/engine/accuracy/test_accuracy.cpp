@@ -1,0 +1,115 @@
+// Accuracy study of issue 12 (assets/report/accuracy.md): the continuum reference (linear and
+// quadratic tet FEM, Richardson extrapolation) and the peridynamic static responses per
+// normalization and resolution. The fast cases check the reference machinery on coarse meshes; the
+// study itself runs with PERIFX_LONG_TESTS=1 and prints one `ACCURACY {json}` line per solve, which
+// assets/report/accuracy_static.py turns into the tables and plots:
+//   PERIFX_LONG_TESTS=1 ./build/perifx_tests -tc='accuracy: FEM reference*'
+//   PERIFX_LONG_TESTS=1 PERIFX_ACCURACY_CELLS=6 PERIFX_ACCURACY_NORMS=paper,discrete,corrected
+//     ./build/perifx_tests -tc='accuracy: PD static*'
+#include <doctest/doctest.h>
+
+#include <cstdlib>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <string>
+
+#include "engine/accuracy/static_problems.hpp"
+
+using namespace perifx;
+using namespace perifx::accuracy;
+
+namespace {
+
+bool long_tests() {
+  const char* v = std::getenv("PERIFX_LONG_TESTS");
+  return v && *v && std::string(v) != "0";
+}
+
+std::vector<std::string> env_list(const char* name, const std::string& fallback) {
+  const char* v = std::getenv(name);
+  std::string s = v && *v ? v : fallback;
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, ',');) out.push_back(item);
+  return out;
+}
+
+const char* name(Problem p) {
+  return p == Problem::cantilever ? "cantilever" : p == Problem::torsion ? "torsion" : "stretch";
+}
+
+double value(Problem p, const Measure& m) {
+  return p == Problem::cantilever ? m.tip : p == Problem::torsion ? m.twist_rate : m.poisson;
+}
+
+Material with_poisson(double nu) {  // μ = 20 MPa, κ from ν
+  Material m;
+  m.kappa = 2.0 * m.mu * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu));
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("accuracy: quadratic tets on a coarse mesh match beam and elasticity theory") {
+  const Material mat;
+  const double E = test::youngs(mat.kappa, mat.mu), nu = test::poisson(mat.kappa, mat.mu);
+  // Stretch: uniform uniaxial stress in the middle, so ν comes out exactly (any element).
+  CHECK(solve_fem(Problem::stretch, mat, 2, true).poisson == doctest::Approx(nu).epsilon(0.01));
+  // Cantilever under self-weight: Euler–Bernoulli tip deflection q L⁴/(8EI) at the free end; the
+  // slab x ∈ [0.4, 0.5] averages w(x) there. Timoshenko shear and the 3D clamp add ~1–2 %.
+  const double L = 0.95, I = std::pow(kDepth, 4) / 12.0, q = 9.81 * mat.density * kDepth * kDepth;
+  auto w = [&](double s) { return q * s * s * (6 * L * L - 4 * L * s + s * s) / (24 * E * I); };
+  double slab = 0;
+  for (int k = 0; k < 100; ++k) slab += w(0.85 + 0.1 * (k + 0.5) / 100) / 100;
+  const double tip = -solve_fem(Problem::cantilever, mat, 2, true).tip;
+  MESSAGE("Euler-Bernoulli slab deflection " << slab << " m, Q10 FEM at 2 cells " << tip << " m");
+  CHECK(tip == doctest::Approx(slab).epsilon(0.04));
+  // Linear tets at 2 cells are far too stiff in bending: what the issue says of the old reference.
+  CHECK(-solve_fem(Problem::cantilever, mat, 2, false).tip < 0.7 * tip);
+}
+
+TEST_CASE("accuracy: FEM reference convergence (PERIFX_LONG_TESTS=1)" * doctest::skip(!long_tests())) {
+  {
+    const Material mat;  // κ 33 MPa, μ 20 MPa (ν 0.248), the issue's cantilever
+    const std::string nu_text = "0.248";
+    for (Problem p : {Problem::cantilever, Problem::torsion}) {
+      for (int n : {2, 4, 6, 8}) {  // even: the clamp x ≤ −0.45 falls on a node plane
+        const Measure m = solve_fem(p, mat, n, true);
+        std::cout << "ACCURACY {\"solver\": \"fem_q10\", \"problem\": \"" << name(p) << "\", \"nu\": " << nu_text
+                  << ", \"cells\": " << n << ", \"value\": " << std::setprecision(12) << value(p, m) << "}" << std::endl;
+      }
+      for (int n : {2, 4, 6, 8, 12, 16}) {
+        const Measure m = solve_fem(p, mat, n, false);
+        std::cout << "ACCURACY {\"solver\": \"fem_t4\", \"problem\": \"" << name(p) << "\", \"nu\": " << nu_text
+                  << ", \"cells\": " << n << ", \"value\": " << std::setprecision(12) << value(p, m) << "}" << std::endl;
+      }
+    }
+  }
+}
+
+TEST_CASE("accuracy: PD static responses (PERIFX_LONG_TESTS=1)" * doctest::skip(!long_tests())) {
+  const auto cells = env_list("PERIFX_ACCURACY_CELLS", "6");
+  const auto norms = env_list("PERIFX_ACCURACY_NORMS", "paper,discrete,corrected");
+  const auto problems = env_list("PERIFX_ACCURACY_PROBLEMS", "cantilever,torsion,stretch");
+  const auto horizons = env_list("PERIFX_ACCURACY_HORIZON", "1.45");
+  for (const auto& c : cells)
+    for (const auto& nm : norms)
+      for (const auto& hz : horizons)
+        for (const auto& pn : problems) {
+          const Problem p = pn == "cantilever" ? Problem::cantilever : pn == "torsion" ? Problem::torsion : Problem::stretch;
+          const auto norm = nm == "paper" ? scene::Normalization::paper
+                            : nm == "discrete" ? scene::Normalization::discrete
+                                               : scene::Normalization::corrected;
+          for (const std::string& nu_text : p == Problem::stretch ? env_list("PERIFX_ACCURACY_NU", "0.1,0.25,0.4")
+                                                                  : std::vector<std::string>{"0.248"}) {
+            const Material mat = p == Problem::stretch ? with_poisson(std::stod(nu_text)) : Material{};
+            const PdResult r = solve_pd(p, mat, std::stoi(c), norm, std::stod(hz));
+            std::cout << "ACCURACY {\"solver\": \"pd\", \"normalization\": \"" << nm << "\", \"horizon\": " << hz
+                      << ", \"problem\": \"" << pn << "\", \"nu\": " << nu_text << ", \"cells\": " << c
+                      << ", \"value\": " << std::setprecision(12) << value(p, r.measure)
+                      << ", \"iterations\": " << r.iterations << ", \"residual\": " << r.residual
+                      << ", \"particles\": " << r.particles << "}" << std::endl;
+          }
+        }
+}
