@@ -537,7 +537,7 @@ class Converter {
     switch (out.kind) {
       case K::traction:
         out.magnitude = num(l["traction"]);
-        out.radius = num(l["depth"]);  // Load::radius holds a traction's layer depth
+        out.depth = num(l["depth"]);
         out.along_normal = !l.contains("direction");
         if (!out.along_normal) out.direction = vec(l["direction"]).normalized();
         break;

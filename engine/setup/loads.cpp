@@ -138,7 +138,7 @@ void resolve_loads(const std::vector<scene::Load>& loads, WorldState& w) {
     std::vector<std::size_t> selected;
     for (std::size_t q = 0; q < faces; ++q)
       if (in_region(load.region, all[q].centroid, p.body_id[all[q].particle])) selected.push_back(q);
-    const double depth = load.kind == scene::Load::Kind::traction ? load.radius : 0.0;  // Load::radius: layer depth
+    const double depth = load.kind == scene::Load::Kind::traction ? load.depth : 0.0;
     if (depth > 0.0) spread_in_layer(w, depth, selected, all, used[l]);
     else used[l] = std::move(selected);
   }

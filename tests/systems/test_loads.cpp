@@ -355,7 +355,7 @@ TEST_CASE("loads: a traction with a depth keeps its total force and moves it bel
   auto pull = traction_on_end(0.1, 1, 1e3);
   sc.loads = {pull};
   World shallow(sc);
-  sc.loads[0].radius = 0.02;  // Load::radius holds the layer depth of a traction
+  sc.loads[0].depth = 0.02;
   World deep(sc);
   const Vec3 f0 = total_external_force(shallow), f1 = total_external_force(deep);
   CHECK(f0.x() == doctest::Approx(1e3 * 0.0016).epsilon(1e-12));

@@ -147,7 +147,8 @@ struct Load {
   // blast, radial_impulse: p = P·(radius/max(r, radius))^falloff·g(t − start − r/front_speed),
   // g(s) = 1 − s/duration on [0, duration) (duration 0: an impulse), zero beyond `cutoff`.
   Vec3 center = Vec3::Zero();          // m
-  double radius = 0.0;                 // m; blast: peak radius; traction: layer depth (0: faces only)
+  double radius = 0.0;                 // m; blast, radial_impulse: peak radius
+  double depth = 0.0;                  // m; traction: depth of the loaded layer below the faces (0: faces only)
   double falloff = 2.0;
   double cutoff = kInfinity;           // m
   double duration = 0.0;               // s
