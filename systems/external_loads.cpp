@@ -22,6 +22,7 @@
 
 #include "parallel.hpp"
 #include "systems.hpp"
+#include "value_noise.hpp"
 
 namespace perifx::systems {
 namespace {
@@ -78,44 +79,9 @@ struct Profile {
   }
 };
 
-// Value noise: a hashed value in [−1, 1] at every integer lattice point, blended with the quintic
-// fade 6s⁵ − 15s⁴ + 10s³ (C² smooth); three independent components.
-std::uint64_t mix(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ull;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-  return x ^ (x >> 31);
-}
-
-double lattice_value(std::int64_t x, std::int64_t y, std::int64_t z, std::uint64_t seed) {
-  std::uint64_t h = mix(seed);
-  h = mix(h ^ static_cast<std::uint64_t>(x));
-  h = mix(h ^ static_cast<std::uint64_t>(y));
-  h = mix(h ^ static_cast<std::uint64_t>(z));
-  return static_cast<double>(h >> 11) * (2.0 / 9007199254740992.0) - 1.0;  // 53 bits → [−1, 1)
-}
-
-double fade(double s) { return s * s * s * (s * (6.0 * s - 15.0) + 10.0); }
-
+// The noise load's field: three independent value-noise components (value_noise.hpp), each in [−1, 1].
 Vec3 noise_field(const Vec3& q, std::uint64_t seed) {
-  const Vec3 f(std::floor(q.x()), std::floor(q.y()), std::floor(q.z()));
-  const Vec3 s = q - f;
-  const double wx = fade(s.x()), wy = fade(s.y()), wz = fade(s.z());
-  const auto ix = static_cast<std::int64_t>(f.x()), iy = static_cast<std::int64_t>(f.y()),
-             iz = static_cast<std::int64_t>(f.z());
-  Vec3 out;
-  for (int c = 0; c < 3; ++c) {
-    const std::uint64_t sc = seed * 3 + static_cast<std::uint64_t>(c);
-    double corner[2][2][2];
-    for (int a = 0; a < 2; ++a)
-      for (int b = 0; b < 2; ++b)
-        for (int d = 0; d < 2; ++d) corner[a][b][d] = lattice_value(ix + a, iy + b, iz + d, sc);
-    const auto lerp = [](double u, double v, double t) { return u + t * (v - u); };
-    const double x00 = lerp(corner[0][0][0], corner[1][0][0], wx), x10 = lerp(corner[0][1][0], corner[1][1][0], wx);
-    const double x01 = lerp(corner[0][0][1], corner[1][0][1], wx), x11 = lerp(corner[0][1][1], corner[1][1][1], wx);
-    out[c] = lerp(lerp(x00, x10, wy), lerp(x01, x11, wy), wz);
-  }
-  return out;
+  return Vec3(value_noise(q, seed * 3), value_noise(q, seed * 3 + 1), value_noise(q, seed * 3 + 2));
 }
 
 // The force of one load, added to out for its particles.

@@ -3,7 +3,7 @@
 //   s_c,i ← s_c,i · Π_{regions of m holding x_i} factor · (1 + A·n(x_i/ℓ, seed)),
 // n a 3D value noise in [−1, 1]: pseudo-random values at the integer lattice points (a hash of the
 // point and the seed, so the same seed gives the same bits on any thread count and platform with
-// IEEE doubles), blended with smoothstep weights. For every bond whose reference segment crosses a
+// IEEE doubles), blended with the quintic fade (value_noise.hpp). For every bond whose reference segment crosses a
 // weak-plane polygon of either end's material, Bonds::break_scale = the smallest such factor (1
 // elsewhere): the break test of both sides compares with that fraction of its limit (bond_rules.hpp
 // side_breaks). Weak planes use the crossing test of initial cracks (planar_polygon.hpp).
@@ -17,26 +17,10 @@
 #include "parallel.hpp"
 #include "planar_polygon.hpp"
 #include "systems.hpp"
+#include "value_noise.hpp"
 
 namespace perifx::systems {
 namespace {
-
-std::uint64_t mix(std::uint64_t z) {  // splitmix64 finalizer
-  z += 0x9e3779b97f4a7c15ull;
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-  return z ^ (z >> 31);
-}
-
-double lattice_value(std::int64_t x, std::int64_t y, std::int64_t z, std::uint64_t seed) {
-  std::uint64_t h = mix(seed);
-  h = mix(h ^ static_cast<std::uint64_t>(x));
-  h = mix(h ^ static_cast<std::uint64_t>(y));
-  h = mix(h ^ static_cast<std::uint64_t>(z));
-  return double(h >> 11) * (2.0 / 9007199254740992.0) - 1.0;  // [−1, 1)
-}
-
-double smooth(double t) { return t * t * (3.0 - 2.0 * t); }
 
 bool holds(const scene::Region& region, const Vec3& x, int body) {
   if (region.body >= 0 && region.body != body) return false;
@@ -52,17 +36,7 @@ bool holds(const scene::Region& region, const Vec3& x, int body) {
 }  // namespace
 
 double strength_noise(const Vec3& x, double feature_size, std::uint64_t seed) {
-  const Vec3 p = x / feature_size;
-  const double fx = std::floor(p.x()), fy = std::floor(p.y()), fz = std::floor(p.z());
-  const auto ix = static_cast<std::int64_t>(fx), iy = static_cast<std::int64_t>(fy), iz = static_cast<std::int64_t>(fz);
-  const double tx = smooth(p.x() - fx), ty = smooth(p.y() - fy), tz = smooth(p.z() - fz);
-  double v = 0.0;
-  for (int c = 0; c < 8; ++c) {
-    const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
-    const double wgt = (dx ? tx : 1.0 - tx) * (dy ? ty : 1.0 - ty) * (dz ? tz : 1.0 - tz);
-    v += wgt * lattice_value(ix + dx, iy + dy, iz + dz, seed);
-  }
-  return v;
+  return value_noise(x / feature_size, seed);
 }
 
 void apply_strength_field(WorldState& w) {
