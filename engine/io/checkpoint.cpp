@@ -55,6 +55,7 @@ class Reader {
   Reader(std::string data, fs::path file) : data_(std::move(data)), file_(std::move(file)) {}
   void read(void* out, std::size_t n) {
     if (n > data_.size() - at_) bad(file_, "the file is truncated");
+    if (n == 0) return;  // an empty array's data() may be null, which memcpy must not get (UBSan)
     std::memcpy(out, data_.data() + at_, n);
     at_ += n;
   }
