@@ -166,6 +166,8 @@ void write_vtp_surface(const fs::path& target, const SurfaceMesh& surface) {
   }
   std::vector<std::uint32_t> tet = surface.tet;
   tet.resize(nf, 0u);
+  // The writer keeps pointers to the arrays until write(): every array must outlive it (no temporaries).
+  const std::vector<std::uint32_t> pieces = vertex_pieces(r, surface);
   VtkAppendedWriter w("PolyData", "NumberOfPoints=\"" + std::to_string(nv) +
                                       "\" NumberOfVerts=\"0\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"" +
                                       std::to_string(nf) + "\"");
@@ -174,7 +176,7 @@ void write_vtp_surface(const fs::path& target, const SurfaceMesh& surface) {
   add_vector(w, "Float64", "velocity", 3, r.velocity);
   add_vector(w, "Float64", "reference", 3, r.reference);
   add_vector(w, "UInt32", "source", 0, r.source);
-  add_vector(w, "UInt32", "piece", 0, vertex_pieces(r, surface));
+  add_vector(w, "UInt32", "piece", 0, pieces);
   w.end_section();
   w.begin_section("CellData");
   add_vector(w, "UInt8", "crack", 0, surface.crack);
