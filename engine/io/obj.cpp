@@ -30,6 +30,15 @@ void append_number(std::string& s, std::uint64_t v) {
   s.append(buf, r.ptr);
 }
 
+// "o piece_<id>" and "g piece_<id>": Blender's importers split objects on `o`, Houdini groups on `g`.
+void append_piece_header(std::string& text, std::uint32_t piece) {
+  text += "o piece_";
+  append_number(text, std::uint64_t{piece});
+  text += "\ng piece_";
+  append_number(text, std::uint64_t{piece});
+  text += '\n';
+}
+
 std::string lower(std::string s) {
   for (char& c : s) c = static_cast<char>(c >= 'A' && c <= 'Z' ? c - 'A' + 'a' : c);
   return s;
@@ -70,13 +79,7 @@ void write_obj_surface(const fs::path& target, const SurfaceMesh& surface, const
   for (std::size_t q = 0; q < order.size(); ++q) {
     const std::size_t f = order[q];
     const bool new_piece = q == 0 || surface.fragment[order[q - 1]] != surface.fragment[f];
-    if (new_piece) {
-      text += "o piece_";
-      append_number(text, std::uint64_t{surface.fragment[f]});
-      text += "\ng piece_";
-      append_number(text, std::uint64_t{surface.fragment[f]});
-      text += '\n';
-    }
+    if (new_piece) append_piece_header(text, surface.fragment[f]);
     if (new_piece || surface.crack[order[q - 1]] != surface.crack[f])
       text += surface.crack[f] ? "usemtl crack\n" : "usemtl surface\n";
     text += 'f';
@@ -117,13 +120,7 @@ void write_obj_cache(const fs::path& target, const SurfaceMesh& surface, const s
   std::uint64_t next_uv = 1;
   for (std::size_t f = 0; f < surface.triangles.size(); ++f) {
     const bool new_piece = f == 0 || surface.fragment[f - 1] != surface.fragment[f];
-    if (new_piece) {
-      text += "o piece_";
-      append_number(text, std::uint64_t{surface.fragment[f]});
-      text += "\ng piece_";
-      append_number(text, std::uint64_t{surface.fragment[f]});
-      text += '\n';
-    }
+    if (new_piece) append_piece_header(text, surface.fragment[f]);
     if (new_piece || surface.crack[f - 1] != surface.crack[f]) text += surface.crack[f] ? "usemtl crack\n" : "usemtl surface\n";
     text += 'f';
     for (auto v : surface.triangles[f]) {
