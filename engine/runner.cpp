@@ -326,6 +326,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
     io::write_run_mesh(summary.output_directory, run_mesh(world));
   }
   summary.last_frame = start_frame;
+  world.set_profiling(options.profile);
   const std::uint64_t session_step = world.step_count();  // rates count this session's steps only
   const std::uint64_t every = sc.output.checkpoint_every;
   for (std::uint64_t k = start_frame + 1; k <= frames; ++k) {
@@ -389,6 +390,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
   summary.threads = world.threads();
   summary.contact_list_builds = world.contact_counters().list_builds;
   summary.contact_list_additions = world.contact_counters().list_additions;
+  if (options.profile) summary.system_times = world.system_times();
 
   // nlohmann-json does the quoting, so any scene name gives valid JSON; ordered keeps the field order.
   nlohmann::ordered_json js;
@@ -411,10 +413,47 @@ RunSummary run_world(World& world, const RunOptions& options) {
   js["first_frame"] = summary.first_frame;  // > 0: resumed after that frame's checkpoint
   js["last_frame"] = summary.last_frame;
   js["interrupted"] = summary.interrupted;
+  if (options.profile) {
+    auto& prof = js["profile"];
+    prof = nlohmann::ordered_json::array();
+    for (const auto& t : summary.system_times)
+      prof.push_back({{"system", t.name}, {"wall_seconds", t.seconds}, {"steps", t.runs}});
+  }
   // Timings differ run to run; keep them out of the frame files so those stay byte-identical.
   const std::string text = js.dump(2) + "\n";
   io::write_atomic(summary.output_directory / "summary.json", [&](std::ostream& out) { out << text; });
   return summary;
+}
+
+std::string profile_table(const RunSummary& summary) {
+  std::string out;
+  char line[200];
+  // Steps of this session (a resumed run counts from its checkpoint): the most any system ran.
+  std::uint64_t runs = 0;
+  for (const auto& t : summary.system_times) runs = std::max(runs, t.runs);
+  const double steps = runs > 0 ? double(runs) : 1.0;
+  const double wall = summary.wall_seconds > 0 ? summary.wall_seconds : 1.0;
+  std::snprintf(line, sizeof line, "%-22s %10s %10s %8s\n", "system", "wall s", "ms/step", "share");
+  out += line;
+  double in_systems = 0.0;
+  for (const auto& t : summary.system_times) {
+    std::snprintf(line, sizeof line, "%-22s %10.3f %10.4f %7.1f%%\n", t.name.c_str(), t.seconds,
+                  t.runs ? 1e3 * t.seconds / double(t.runs) : 0.0, 100.0 * t.seconds / wall);
+    out += line;
+    in_systems += t.seconds;
+  }
+  // The rest of the stepping time: graph start-up and hand-over between nodes, the instability
+  // check. Negative when systems ran side by side (their times overlap); shown as 0 then.
+  const double rest = std::max(0.0, summary.wall_seconds - in_systems);
+  std::snprintf(line, sizeof line, "%-22s %10.3f %10.4f %7.1f%%\n", "(between systems)", rest, 1e3 * rest / steps,
+                100.0 * rest / wall);
+  out += line;
+  std::snprintf(line, sizeof line, "%-22s %10.3f %10.4f %7.1f%%\n", "stepping total", summary.wall_seconds,
+                1e3 * summary.wall_seconds / steps, 100.0);
+  out += line;
+  std::snprintf(line, sizeof line, "%-22s %10.3f %10s %8s\n", "file output", summary.output_seconds, "-", "-");
+  out += line;
+  return out;
 }
 
 }  // namespace perifx

@@ -36,6 +36,9 @@ struct RunOptions {
   // Polled after every frame; when it returns true the run writes a checkpoint and the summary and
   // returns with RunSummary::interrupted set (the CLI's SIGTERM/SIGINT handling).
   std::function<bool()> stop_requested;
+  // Time every system of the step (World::set_profiling) and report it in RunSummary::system_times,
+  // summary.json ("profile") and profile_table (`perifx run --profile`).
+  bool profile = false;
 };
 
 struct RunSummary {
@@ -53,7 +56,13 @@ struct RunSummary {
   std::uint64_t first_frame = 0;      // 0, or the checkpoint's frame a resumed run continued after
   std::uint64_t last_frame = 0;       // the last frame written
   bool interrupted = false;           // stopped by stop_requested before the last frame
+  std::vector<SystemTime> system_times;  // RunOptions::profile: per system of the step, this session
 };
+
+// The profile of a run as a text table: one row per system (wall seconds, ms per step, share of the
+// stepping wall time), then stepping outside the graph's systems and file output. Systems the graph
+// runs side by side overlap, so their shares can add up to more than 100 %.
+std::string profile_table(const RunSummary& summary);
 
 // The files of a run in `dir` (particles.*, surface.*, tets.*, *.pvd, projectiles.csv, summary.json,
 // mesh.json, checkpoint.bin), sorted; empty when there are none or `dir` does not exist.

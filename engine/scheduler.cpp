@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <sstream>
 #include <stdexcept>
 
@@ -56,10 +57,21 @@ void Scheduler::build() {
     graph_ = std::make_unique<tbb::flow::graph>();
     start_ = std::make_unique<tbb::flow::broadcast_node<tbb::flow::continue_msg>>(*graph_);
     nodes_.clear();
-    for (auto& sys : systems_) {
-      auto* run = &sys.run;
+    seconds_.assign(systems_.size(), 0.0);
+    runs_.assign(systems_.size(), 0);
+    for (std::size_t s = 0; s < systems_.size(); ++s) {
+      auto* run = &systems_[s].run;
       nodes_.push_back(std::make_unique<tbb::flow::continue_node<tbb::flow::continue_msg>>(
-          *graph_, [run](const tbb::flow::continue_msg&) { (*run)(); }));
+          *graph_, [this, run, s](const tbb::flow::continue_msg&) {
+            if (!profiling_) {
+              (*run)();
+              return;
+            }
+            const auto begin = std::chrono::steady_clock::now();
+            (*run)();
+            seconds_[s] += std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+            ++runs_[s];
+          }));
     }
     for (std::size_t s = 0; s < systems_.size(); ++s) {
       if (dependencies_[s].empty()) tbb::flow::make_edge(*start_, *nodes_[s]);
@@ -73,6 +85,13 @@ void Scheduler::run_step() {
     start_->try_put(tbb::flow::continue_msg());
     graph_->wait_for_all();
   });
+}
+
+std::vector<Scheduler::SystemTime> Scheduler::profile() const {
+  std::vector<SystemTime> out;
+  for (std::size_t s = 0; s < systems_.size(); ++s)
+    out.push_back({systems_[s].name, s < seconds_.size() ? seconds_[s] : 0.0, s < runs_.size() ? runs_[s] : 0});
+  return out;
 }
 
 std::string Scheduler::describe() const {

@@ -9,6 +9,7 @@
 #include <oneapi/tbb/flow_graph.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -37,6 +38,20 @@ class Scheduler {
   const std::vector<std::vector<int>>& dependencies() const { return dependencies_; }
   std::string describe() const;  // one line per system: name, reads, writes, depends on
 
+  // Per-system wall time (`perifx run --profile`). When on, each node reads the steady clock before
+  // and after its system and adds the difference to that system's slot. A node runs once per step
+  // and only it writes its slot; wait_for_all orders one step's writes before the next step's and
+  // before profile() reads them, so no atomics are needed. Off by default (two clock reads per
+  // system per step when on).
+  void set_profiling(bool on) { profiling_ = on; }
+  bool profiling() const { return profiling_; }
+  struct SystemTime {
+    std::string name;
+    double seconds = 0.0;    // summed wall time of the system's node over all profiled steps
+    std::uint64_t runs = 0;  // how often it ran while profiling was on
+  };
+  std::vector<SystemTime> profile() const;  // in systems() order
+
  private:
   tbb::task_arena arena_;
   std::vector<SystemDecl> systems_;
@@ -44,6 +59,9 @@ class Scheduler {
   std::unique_ptr<tbb::flow::graph> graph_;
   std::unique_ptr<tbb::flow::broadcast_node<tbb::flow::continue_msg>> start_;
   std::vector<std::unique_ptr<tbb::flow::continue_node<tbb::flow::continue_msg>>> nodes_;
+  bool profiling_ = false;
+  std::vector<double> seconds_;         // per system, see set_profiling
+  std::vector<std::uint64_t> runs_;
 };
 
 }  // namespace perifx

@@ -154,6 +154,14 @@ Diagnostics World::diagnostics() const {
 
 std::string World::schedule() const { return impl_->scheduler->describe(); }
 
+void World::set_profiling(bool on) { impl_->scheduler->set_profiling(on); }
+
+std::vector<SystemTime> World::system_times() const {
+  std::vector<SystemTime> out;
+  for (const auto& t : impl_->scheduler->profile()) out.push_back({t.name, t.seconds, t.runs});
+  return out;
+}
+
 std::span<const Vec3> World::positions() const { return impl_->state->particles.position; }
 std::span<const Vec3> World::reference_positions() const { return impl_->state->particles.reference_position; }
 std::span<const Vec3> World::velocities() const { return impl_->state->particles.velocity; }

@@ -53,6 +53,7 @@ struct Args {
   std::optional<std::string> out, frames, threads, solver, dt, progress, horizon;
   bool quiet = false, overwrite = false, resume = false, force = false;
   bool render = false;  // run --render
+  bool profile = false;  // run --profile
 };
 
 long long parse_count(const std::string& flag, const std::string& value, long long min) {
@@ -306,6 +307,7 @@ int cmd_run(const Args& a) {
   perifx::RunOptions opt;
   if (a.out) opt.output_directory = *a.out;
   opt.frames = frames;
+  opt.profile = a.profile;
   opt.existing = a.resume ? perifx::ExistingRun::resume
                  : a.overwrite ? perifx::ExistingRun::overwrite : perifx::ExistingRun::refuse;
   std::signal(SIGTERM, on_stop_signal);
@@ -343,6 +345,7 @@ int cmd_run(const Args& a) {
                   s.bond_updates_per_second, s.threads, s.output_directory.string().c_str());
     std::cerr << buf;
   }
+  if (a.profile) std::cout << "profile (" << s.threads << " threads):\n" << perifx::profile_table(s) << std::flush;
   if (s.interrupted) {
     if (!a.quiet) std::cerr << "perifx: interrupted after frame " << s.last_frame << "; continue with --resume\n";
     return kInterrupted;
@@ -483,6 +486,8 @@ int main(int argc, char** argv) {
                                       "(start over when there is none)");
   run->add_flag("--render", a.render, "then render PNG frames (and movie.mp4 with ffmpeg) into OUT/render");
   run->add_flag("--force", a.force, "run even when the memory estimate exceeds the available memory");
+  run->add_flag("--profile", a.profile, "time every system of the step and print the table at the end (stdout; also "
+                                        "\"profile\" in summary.json)");
   scene_options(app.add_subcommand("check", "validate the scene without running it"));
   scene_options(app.add_subcommand("info", "particles, bonds, memory, the stable time step and the task graph"));
   app.add_subcommand("spec", "print the scene format reference (markdown)");

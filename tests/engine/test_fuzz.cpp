@@ -34,9 +34,16 @@ using nlohmann::json;
 namespace {
 
 constexpr std::size_t kMaxLine = 1200;  // a message, its file path included
-// A case takes well under a second on an idle machine; the limit is generous because CI and development
-// machines share their 2 cores with compilers (a loaded `check` once took more than 20 s).
+// Most cases take well under a second on an idle machine; a mutation that drops the mesh size builds
+// the default 48,000-particle box for `check` (about 8 s of CPU in Release). The limit is generous
+// because CI and development machines share their 2 cores with compilers (a loaded `check` once took
+// more than 20 s), and 5× that under ASan + UBSan, which slow this code about 6× (that same case took
+// 145 s with three compilers running). A hang is an unbounded loop, so it is caught either way.
+#ifdef PERIFX_SANITIZED
+constexpr int kTimeoutSeconds = 300;
+#else
 constexpr int kTimeoutSeconds = 60;
+#endif
 
 struct Outcome {
   int code = -1;  // exit status; -1: signal

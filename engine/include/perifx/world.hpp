@@ -76,6 +76,13 @@ struct ContactCounters {
   std::uint64_t list_additions = 0;  // incremental additions of broken bonds' pairs
 };
 
+// Wall time of one system of the step's task graph while profiling was on (World::set_profiling).
+struct SystemTime {
+  std::string name;        // the system's name, as in World::schedule()
+  double seconds = 0.0;    // summed over the profiled steps; systems the graph runs side by side overlap
+  std::uint64_t runs = 0;  // profiled steps it ran in
+};
+
 class World {
  public:
   // Loads and validates a scene file (throws scene::SceneError, geometry::GeometryError).
@@ -105,6 +112,10 @@ class World {
   MemoryUse memory() const;
   Diagnostics diagnostics() const;
   std::string schedule() const;    // the task graph, one system per line
+  // Per-system wall time of the steps taken while profiling is on (off by default; costs two clock
+  // reads per system per step). `perifx run --profile` prints it.
+  void set_profiling(bool on);
+  std::vector<SystemTime> system_times() const;  // in schedule() order
 
   std::span<const Vec3> positions() const;
   std::span<const Vec3> reference_positions() const;
