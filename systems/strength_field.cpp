@@ -16,24 +16,11 @@
 
 #include "parallel.hpp"
 #include "planar_polygon.hpp"
+#include "region.hpp"
 #include "systems.hpp"
 #include "value_noise.hpp"
 
 namespace perifx::systems {
-namespace {
-
-bool holds(const scene::Region& region, const Vec3& x, int body) {
-  if (region.body >= 0 && region.body != body) return false;
-  switch (region.kind) {
-    case scene::Region::Kind::all: return true;
-    case scene::Region::Kind::box: return (x.array() >= region.min.array()).all() && (x.array() <= region.max.array()).all();
-    case scene::Region::Kind::sphere: return (x - region.center).squaredNorm() <= region.radius * region.radius;
-    case scene::Region::Kind::halfspace: return (x - region.point).dot(region.normal) >= 0.0;
-  }
-  return false;
-}
-
-}  // namespace
 
 double strength_noise(const Vec3& x, double feature_size, std::uint64_t seed) {
   return value_noise(x / feature_size, seed);
@@ -48,7 +35,7 @@ void apply_strength_field(WorldState& w) {
     if (st.empty()) return;
     double f = 1.0;
     for (const auto& r : st.regions)
-      if (holds(r.region, p.reference_position[i], p.body_id[i])) f *= r.factor;
+      if (region_contains(r.region, p.reference_position[i], p.body_id[i])) f *= r.factor;
     if (st.noise_amplitude > 0.0 && st.noise_feature_size > 0.0)
       f *= 1.0 + st.noise_amplitude * strength_noise(p.reference_position[i], st.noise_feature_size, st.noise_seed);
     w.model.critical_stretch[i] *= f;

@@ -8,6 +8,7 @@
 
 #include "geometry/geometry.hpp"
 #include "setup/world_setup.hpp"
+#include "systems/region.hpp"
 
 namespace perifx::setup {
 namespace {
@@ -131,13 +132,13 @@ void resolve_loads(const std::vector<scene::Load>& loads, WorldState& w) {
     const scene::Load& load = loads[l];
     if (!surface_load(load.kind)) {
       for (std::size_t i = 0; i < n; ++i)
-        if (in_region(load.region, p.reference_position[i], p.body_id[i]))
+        if (systems::region_contains(load.region, p.reference_position[i], p.body_id[i]))
           set.particles[l].push_back(static_cast<std::uint32_t>(i));
       continue;
     }
     std::vector<std::size_t> selected;
     for (std::size_t q = 0; q < faces; ++q)
-      if (in_region(load.region, all[q].centroid, p.body_id[all[q].particle])) selected.push_back(q);
+      if (systems::region_contains(load.region, all[q].centroid, p.body_id[all[q].particle])) selected.push_back(q);
     const double depth = load.kind == scene::Load::Kind::traction ? load.depth : 0.0;
     if (depth > 0.0) spread_in_layer(w, depth, selected, all, used[l]);
     else used[l] = std::move(selected);

@@ -28,8 +28,6 @@ void allocate_step_state(WorldState& w);
 // regions.cpp: w.boundary from the scene's boundary conditions.
 void resolve_boundary_conditions(const std::vector<scene::BoundaryCondition>& conditions, WorldState& w);
 
-// regions.cpp: whether reference point x of a particle of body `body` lies in `region`.
-bool in_region(const scene::Region& region, const Vec3& x, int body);
 // loads.cpp: w.surface (boundary patches of the reference mesh) and w.loads from the scene's loads.
 void resolve_loads(const std::vector<scene::Load>& loads, WorldState& w);
 
