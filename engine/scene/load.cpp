@@ -301,24 +301,26 @@ class Converter {
     if (!(wave <= kMaxWaveSpeed))
       fail(p, "moduli too stiff for the density (got a wave speed sqrt((K + 4G/3)/density) of " +
                   std::to_string(wave) + " m/s; expected at most 1e6 m/s)");
-    // Fracture: critical_stretch (model units) or fracture_energy (J/m², converted per horizon), not both.
-    if (m.contains("critical_stretch") && m.contains("fracture_energy"))
-      fail(p + "/fracture_energy", "given together with critical_stretch (got " + show(m["fracture_energy"]) +
-                                       "; expected either critical_stretch or fracture_energy, not both)");
-    const double g_c = m.contains("fracture_energy") ? num(m["fracture_energy"])
-                       : m.contains("critical_stretch") || !preset ? 0.0
-                                                                   : preset->fracture_energy;
-    if (m.contains("critical_stretch")) out.critical_stretch = num(m["critical_stretch"]);
-    else if (std::isfinite(g_c) && g_c > 0.0) out.fracture_energy = g_c;  // ∞: stays unbreakable
-    // Yield: yield_energy (model units) or yield_stress (Pa, converted per horizon), not both.
-    if (m.contains("yield_energy") && m.contains("yield_stress"))
-      fail(p + "/yield_stress", "given together with yield_energy (got " + show(m["yield_stress"]) +
-                                    "; expected either yield_energy or yield_stress, not both)");
-    const double sigma_y = m.contains("yield_stress") ? num(m["yield_stress"])
-                           : m.contains("yield_energy") || !preset ? 0.0
-                                                                   : preset->yield_stress;
-    if (m.contains("yield_energy")) out.yield_energy = num(m["yield_energy"]);
-    else if (std::isfinite(sigma_y) && sigma_y > 0.0) out.yield_stress = sigma_y;
+    // Fracture and yield each come as a model value or a physical one (converted per horizon), not
+    // both: critical_stretch or fracture_energy (J/m²), yield_energy or yield_stress (Pa). With
+    // neither, a preset gives its physical value; ∞ or 0 leaves the default (unbreakable / elastic).
+    auto model_or_physical = [&](const char* model_key, const char* physical_key, double preset_value,
+                                 double& model_out, double& physical_out) {
+      if (m.contains(model_key) && m.contains(physical_key))
+        fail(p + "/" + physical_key, std::string("given together with ") + model_key + " (got " +
+                                         show(m[physical_key]) + "; expected either " + model_key + " or " +
+                                         physical_key + ", not both)");
+      if (m.contains(model_key)) {
+        model_out = num(m[model_key]);
+        return;
+      }
+      const double physical = m.contains(physical_key) ? num(m[physical_key]) : preset ? preset_value : 0.0;
+      if (std::isfinite(physical) && physical > 0.0) physical_out = physical;
+    };
+    model_or_physical("critical_stretch", "fracture_energy", preset ? preset->fracture_energy : 0.0,
+                      out.critical_stretch, out.fracture_energy);
+    model_or_physical("yield_energy", "yield_stress", preset ? preset->yield_stress : 0.0, out.yield_energy,
+                      out.yield_stress);
     // A physical yield stress means perfect plasticity unless the scene caps it.
     out.plastic_cap_ratio = m.contains("plastic_cap_ratio") ? num(m["plastic_cap_ratio"])
                             : out.yield_stress > 0.0         ? kInfinity
