@@ -27,11 +27,14 @@
 #include <nlohmann/json.hpp>
 
 #include "io/run_dir.hpp"
+#include "file_support.hpp"
 
 namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
+
+using perifx::test::slurp;
 
 constexpr std::size_t kMaxLine = 1200;  // a message, its file path included
 // Most cases take well under a second on an idle machine; a mutation that drops the mesh size builds
@@ -49,13 +52,6 @@ struct Outcome {
   int code = -1;  // exit status; -1: signal
   std::string out, err;
 };
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 std::string quote(const std::string& s) {
   std::string q = "'";

@@ -14,18 +14,14 @@
 #include "cli_support.hpp"
 #include "io/run_dir.hpp"
 #include "support.hpp"
+#include "file_support.hpp"
 
 namespace fs = std::filesystem;
 using namespace perifx;
 
 namespace {
 
-fs::path temp_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("perifx_robust_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path temp_dir(const std::string& name) { return perifx::test::temp_dir("robust", name); }
 
 nlohmann::json ball_drop() {
   std::ifstream in(fs::path(PERIFX_SOURCE_DIR) / "assets" / "scenes" / "ball_drop.json");

@@ -9,23 +9,14 @@
 
 #include "runner.hpp"
 #include "support.hpp"
+#include "file_support.hpp"
 
 using namespace perifx;
 namespace fs = std::filesystem;
 
 namespace {
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("perifx_test_runner_" + std::to_string(::getpid())) / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-std::string read_all(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
+fs::path fresh_dir(const std::string& name) { return perifx::test::temp_dir("runner", name); }
 
 // A falling bar that breaks on a collider: every fracture and mesh system is in the graph.
 scene::Scene breaking_bar() {
@@ -45,7 +36,8 @@ TEST_CASE("run --profile: every system of the graph is timed once per step, and 
   World plain(sc), profiled(sc);
   RunOptions opt;
   opt.frames = 3;
-  opt.output_directory = fresh_dir("plain");
+  const fs::path plain_dir = fresh_dir("plain");
+  opt.output_directory = plain_dir;
   const RunSummary a = run_world(plain, opt);
   CHECK(a.system_times.empty());
   opt.output_directory = fresh_dir("profiled");
@@ -67,16 +59,16 @@ TEST_CASE("run --profile: every system of the graph is timed once per step, and 
   CHECK(b.steps == 150);  // 3 frames of 10 ms at dt 0.2 ms
 
   // summary.json carries the same table; the frame files are byte-identical to the unprofiled run.
-  const auto js = nlohmann::json::parse(read_all(*opt.output_directory / "summary.json"));
+  const auto js = nlohmann::json::parse(test::slurp(*opt.output_directory / "summary.json"));
   REQUIRE(js.contains("profile"));
   REQUIRE(js["profile"].size() == systems.size());
   CHECK(js["profile"][0]["system"] == systems[0].name);
   CHECK(js["profile"][0]["steps"] == b.steps);
-  CHECK_FALSE(nlohmann::json::parse(read_all(fresh_dir("x").parent_path() / "plain" / "summary.json")).contains("profile"));
+  CHECK_FALSE(nlohmann::json::parse(test::slurp(plain_dir / "summary.json")).contains("profile"));
   for (int k = 0; k <= 3; ++k) {
     char name[32];
     std::snprintf(name, sizeof name, "particles.%04d.vtu", k);
-    CHECK(read_all(fresh_dir("x").parent_path() / "plain" / name) == read_all(*opt.output_directory / name));
+    CHECK(test::slurp(plain_dir / name) == test::slurp(*opt.output_directory / name));
   }
 
   // The text table: a row per system plus the totals.

@@ -14,30 +14,21 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_support.hpp"
+#include "file_support.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
+using perifx::test::slurp;
+
 using perifx::test::run_cli;
 
-fs::path temp_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("perifx_cli_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path temp_dir(const std::string& name) { return perifx::test::temp_dir("cli", name); }
 
 fs::path write(const fs::path& dir, const std::string& name, const std::string& text) {
   std::ofstream(dir / name) << text;
   return dir / name;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
 }
 
 const char* kScene = R"({

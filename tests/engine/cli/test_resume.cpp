@@ -19,27 +19,19 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_support.hpp"
+#include "file_support.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
+using perifx::test::slurp;
+
 using perifx::test::run_cli;
 
 const fs::path kScene = fs::path(PERIFX_SOURCE_DIR) / "tests/engine/data/resume_wall.json";
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("perifx_resume_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  return dir;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+fs::path fresh_dir(const std::string& name) { return perifx::test::temp_dir("resume", name, false); }
 
 // Every file of `a` except summary.json and the checkpoint is in `b` with the same bytes.
 int compare_runs(const fs::path& a, const fs::path& b) {

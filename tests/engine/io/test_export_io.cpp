@@ -16,25 +16,16 @@
 #include "io/obj.hpp"
 #include "io/pc2.hpp"
 #include "io/pieces_csv.hpp"
+#include "file_support.hpp"
 
 namespace fs = std::filesystem;
 using namespace perifx;
 
 namespace {
 
-fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("perifx_export_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+using perifx::test::slurp;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+fs::path scratch(const std::string& name) { return perifx::test::temp_dir("export", name); }
 
 template <class T>
 T at(const std::string& s, std::size_t offset) {

@@ -9,18 +9,14 @@
 #include "tools/compare.hpp"
 #include "runner.hpp"
 #include "support.hpp"
+#include "file_support.hpp"
 
 using namespace perifx;
 namespace fs = std::filesystem;
 
 namespace {
 
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("perifx_test_compare_" + std::to_string(::getpid())) / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path temp_dir(const std::string& name) { return perifx::test::temp_dir("compare", name); }
 
 // A small clamped bar sagging under gravity, 4 frames.
 scene::Scene tiny(scene::Solver solver, double cell = 0.025) {

@@ -15,18 +15,14 @@
 #include "runner.hpp"
 #include "support.hpp"
 #include "tools/surface_check.hpp"
+#include "file_support.hpp"
 
 using namespace perifx;
 namespace fs = std::filesystem;
 
 namespace {
 
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("perifx_test_surface_check_" + std::to_string(::getpid())) / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+fs::path temp_dir(const std::string& name) { return perifx::test::temp_dir("surface_check", name); }
 
 // A brittle slab torn apart by its two halves' velocities: pieces fly off within a few frames.
 scene::Scene torn_slab() {

@@ -24,12 +24,15 @@
 #include "tools/render/render.hpp"
 #include "tools/render/render_run.hpp"
 #include "io/run_dir.hpp"
+#include "file_support.hpp"
 
 namespace fs = std::filesystem;
 using namespace perifx;
 using namespace perifx::render;
 
 namespace {
+
+using perifx::test::slurp;
 
 // Exit code of `perifx ARGS`; the output goes to *output when given.
 int run_cli(const std::string& args, std::string* output = nullptr) {
@@ -66,19 +69,7 @@ Decoded decode_png(const std::string& png) {
 }
 
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-fs::path temp_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("perifx_render_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path temp_dir(const std::string& name) { return perifx::test::temp_dir("render", name); }
 
 
 // A ball of particles of radius 0.5 at the origin, on a jittered lattice.
