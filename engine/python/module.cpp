@@ -174,6 +174,17 @@ PYBIND11_MODULE(perifx, m) {
              return out;
            })
       .def("memory_bytes", [](const World& w) { return w.memory().total_bytes; })
+      .def("set_profiling", &World::set_profiling, py::arg("on"),
+           "time every system of the step from now on (off by default)")
+      .def("system_times", [](const World& w) {
+             py::list out;
+             for (const auto& t : w.system_times()) {
+               py::dict d;
+               d["system"] = t.name, d["seconds"] = t.seconds, d["steps"] = t.runs;
+               out.append(d);
+             }
+             return out;
+           }, "per system of the step, in schedule order: dict of system, seconds (wall), steps (profiled)")
       .def("save_checkpoint", [](const World& w, const std::filesystem::path& p) { w.save_checkpoint(p); }, py::arg("path"))
       .def("load_checkpoint", [](World& w, const std::filesystem::path& p) { w.load_checkpoint(p); }, py::arg("path"));
 
@@ -181,13 +192,14 @@ PYBIND11_MODULE(perifx, m) {
       "run",
       [](const py::object& scene, std::optional<std::filesystem::path> out, std::optional<std::uint64_t> frames,
          std::optional<int> threads, const py::object& progress, bool overwrite, bool resume,
-         std::optional<std::filesystem::path> base) {
+         std::optional<std::filesystem::path> base, bool profile) {
         auto sc = scene_of(scene, base);
         if (threads) sc.threads = *threads;
         World world(sc);
         perifx::RunOptions opt;
         opt.output_directory = out;
         opt.frames = frames;
+        opt.profile = profile;
         opt.existing = resume ? perifx::ExistingRun::resume
                        : overwrite ? perifx::ExistingRun::overwrite : perifx::ExistingRun::refuse;
         // Between frames (on this thread, which holds no GIL while stepping): Ctrl-C is seen by
@@ -221,13 +233,24 @@ PYBIND11_MODULE(perifx, m) {
         d["simulated_seconds"] = s.simulated_seconds, d["wall_seconds"] = s.wall_seconds;
         d["threads"] = s.threads, d["output_directory"] = s.output_directory;
         d["first_frame"] = s.first_frame, d["last_frame"] = s.last_frame;
+        if (profile) {
+          py::list prof;
+          for (const auto& t : s.system_times) {
+            py::dict row;
+            row["system"] = t.name, row["seconds"] = t.seconds, row["steps"] = t.runs;
+            prof.append(row);
+          }
+          d["profile"] = prof;
+        }
         return d;
       },
       py::arg("scene"), py::kw_only(), py::arg("out") = py::none(), py::arg("frames") = py::none(),
       py::arg("threads") = py::none(), py::arg("progress") = py::none(), py::arg("overwrite") = false,
-      py::arg("resume") = false, py::arg("base") = py::none(),
-      "run(scene, *, out=None, frames=None, threads=None, progress=None, overwrite=False, resume=False): "
+      py::arg("resume") = false, py::arg("base") = py::none(), py::arg("profile") = false,
+      "run(scene, *, out=None, frames=None, threads=None, progress=None, overwrite=False, resume=False, "
+      "profile=False): "
       "write the scene's frames as `perifx run` does; progress(dict) is called after every frame; Ctrl-C "
       "finishes the frame, writes a checkpoint and the summary, and raises KeyboardInterrupt (continue with "
-      "resume=True). Returns the summary as a dict.");
+      "resume=True). Returns the summary as a dict (with profile=True also 'profile': seconds per system of the "
+      "step, as `perifx run --profile`).");
 }

@@ -154,3 +154,16 @@ def test_ctrl_c_stops_a_run_with_a_checkpoint(tmp_path):
     assert (out / "checkpoint.bin").exists()
     resumed = perifx.run(str(WALL), out=str(out), frames=summary["last_frame"] + 2, resume=True)
     assert resumed["first_frame"] == summary["last_frame"]
+
+
+def test_profile_times_every_system_once_per_step(tmp_path):
+    w = perifx.World(small_scene(), threads=1)
+    assert all(t["steps"] == 0 for t in w.system_times())
+    w.set_profiling(True)
+    w.step(7)
+    times = w.system_times()
+    assert {"kick_begin", "dilatation", "bond_pass", "kick_end"} <= {t["system"] for t in times}
+    assert all(t["steps"] == 7 and t["seconds"] >= 0.0 for t in times)
+    s = perifx.run(small_scene(), out=tmp_path / "run", frames=2, threads=1, profile=True)
+    assert [t["steps"] for t in s["profile"]] == [s["steps"]] * len(s["profile"])
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["profile"][0]["steps"] == s["steps"]
