@@ -61,6 +61,14 @@ bool long_tests() {
   return v != nullptr && std::string(v) == "1";
 }
 
+// Frames per preview: 2, or 1 under ASan + UBSan, which make the step about 6× slower (19 previews × 2
+// frames took over 50 minutes there on a shared 2-core machine; one frame still runs every system).
+#ifdef PERIFX_SANITIZED
+constexpr const char* kPreviewFrames = "1";
+#else
+constexpr const char* kPreviewFrames = "2";
+#endif
+
 void run_previews(bool slow) {
   const auto previews = scenes_under(kScenes / "paper", ".preview.json");
   REQUIRE(previews.size() >= 19);
@@ -69,7 +77,7 @@ void run_previews(bool slow) {
   for (const auto& p : previews) {
     if (kSlowPreviews.count(p.filename().string()) != (slow ? 1u : 0u)) continue;
     const fs::path dir = out / p.stem();
-    const auto r = run_cli("run " + quoted(p) + " --frames 2 --quiet --threads 2 --out " + quoted(dir));
+    const auto r = run_cli("run " + quoted(p) + " --frames " + std::string(kPreviewFrames) + " --quiet --threads 2 --out " + quoted(dir));
     CHECK_MESSAGE(r.code == 0, (p.filename().string() + ": " + r.output));
     CHECK_MESSAGE(fs::exists(dir / "summary.json"), p.filename().string());
     ++ran;
