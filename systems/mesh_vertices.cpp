@@ -6,10 +6,11 @@
 //     F_p is used when p has ≥ 4 alive bonds, K is well conditioned (‖K‖‖K⁻¹‖ ≤ 1e4, Frobenius) and
 //     F_p is well conditioned (det > 0, ‖F‖², ‖F⁻¹‖² ≤ 12, i.e. no stretch beyond ~3.5×). A badly
 //     stretched or inverted F_p is replaced by its own rotation. With too few bonds or K
-//     ill-conditioned, F_p ← the rotation of N + μ R_old (R_old: rotation of the previous F_p,
-//     μ = 1e-3 tr K): the rotation that best maps the few alive bonds, the last rotation filling what
-//     they leave free (a lone particle keeps its last rotation; two bonded particles turn with their
-//     bond). Ḟ_p ← 0 in both. A vertex v with tet group G
+//     ill-conditioned, F_p ← the particle's held rotation, which is step state kept by the
+//     mesh_rotations system (mesh_rotations.cpp): every step, the rotation of N + μ R_old (R_old: the
+//     rotation of the last step, μ = 1e-3 tr K), i.e. the rotation that best maps the few alive bonds,
+//     the last rotation filling what they leave free (a lone particle keeps its last rotation; two
+//     bonded particles turn with their bond). Ḟ_p ← 0 in both. A vertex v with tet group G
 //     (the tets that currently hold v; tet t is particle t), weights w_t = m_t / Σ_G m:
 //       x_v = Σ w_t (y_t + F_t (X_v − x_t)),   v_v = Σ w_t (v_t + Ḟ_t (X_v − x_t)).
 //     Rigid and affine motion with full families give F exact to round-off, so x_v is exact; a vertex
@@ -23,11 +24,14 @@
 //   VertexMotion::embedded: x_v = X_v + Σ_p w_vp (y_p − x_p), v_v = Σ_p w_vp v_p with the affine-fit
 //     weights of systems/embedded_mesh.cpp (fixed at setup/split; extrapolates once the support
 //     particles separate, kept for comparison).
-// In the step graph the deformation mode does nothing: the engine evaluates it when the mesh is read
-// (World::surface, World::tet_mesh), so its cost is per output frame, not per step, and "the last
-// rotation" a bondless particle keeps is the one of the last evaluation.
+// In the step graph the deformation mode does nothing here (mesh_rotations keeps the held rotations):
+// the engine evaluates it when the mesh is read (World::surface, World::tet_mesh), so its cost is per
+// output frame, not per step. The evaluation is a pure function of the state: it writes only F_p, Ḟ_p
+// and the vertex positions and velocities, which nothing else reads, so reading the mesh twice gives
+// the same bits and does not change the run.
 // Parallel over particles, then over vertices, each element written by one task: deterministic.
-// Reads:  position, velocity, bond_alive, mesh.   Writes: mesh (F, Ḟ, vertex positions and velocities).
+// Reads:  position, velocity, bond_alive, mesh (held rotations).
+// Writes: mesh (F, Ḟ, vertex positions and velocities: derived, not state, in the deformation mode).
 #include <algorithm>
 
 #include "parallel.hpp"
@@ -37,15 +41,8 @@ namespace perifx::systems {
 
 namespace {
 
-// Squared Frobenius norms of A and A⁻¹ (A⁻¹ via the adjugate); false when det A ≤ 0.
-bool conditioned(const Mat3& A, double limit_sq, double& det) {
-  det = A.determinant();
-  if (!(det > 0.0)) return false;
-  const Mat3 inv = A.inverse();
-  return A.squaredNorm() <= limit_sq && inv.squaredNorm() <= limit_sq;
-}
-
-// F_p and Ḟ_p of one particle (see the header comment).
+// F_p and Ḟ_p of one particle (see the header comment). A pure function of the state: the fallback
+// reads the held rotation that the mesh_rotations system keeps current every step.
 void particle_deformation(WorldState& w, std::size_t p) {
   EmbeddedMesh& e = w.embedded;
   const Bonds& b = w.bonds;
@@ -67,12 +64,10 @@ void particle_deformation(WorldState& w, std::size_t p) {
   }
   Mat3& F = e.deformation[p];
   Mat3& Fd = e.deformation_rate[p];
-  double det = 0.0;
-  // K's scale is Σ ω V |ξ|²; the condition test is scale-free (‖K‖²‖K⁻¹‖² ≤ 1e8 with ‖I‖² = 3).
-  if (alive >= 4 && (det = K.determinant()) > 0.0 && K.squaredNorm() * K.inverse().squaredNorm() <= 1e8) {
+  if (family_fits(K, alive)) {
     const Mat3 Kinv = K.inverse();
     const Mat3 Fnew = N * Kinv;
-    if (conditioned(Fnew, 12.0, det)) {
+    if (deformation_conditioned(Fnew)) {
       F = Fnew;
       Fd = Nd * Kinv;
       return;
@@ -81,12 +76,10 @@ void particle_deformation(WorldState& w, std::size_t p) {
     Fd.setZero();
     return;
   }
-  // Too few bonds or K ill-conditioned: the rotation that best maps the alive bonds (regularized
-  // Kabsch: maximize tr(Rᵀ M), M = Σ ω V η⊗ξ + μ R_old). The last rotation fills the directions the
-  // bonds do not fix (about a lone bond's axis; all of them for a particle with no bond).
-  const Mat3 held = polar_rotation(F);
-  const double mu = 1e-3 * std::max(K.trace(), 0.0);
-  F = alive > 0 && mu > 0.0 ? polar_rotation(N + mu * held) : held;
+  // Too few bonds or K ill-conditioned: the held rotation of the last step (mesh_rotations.cpp: the
+  // regularized-Kabsch rotation that best maps the alive bonds, the previous rotation filling what
+  // they leave free).
+  F = e.held_deformation[p];
   Fd.setZero();
 }
 
@@ -99,10 +92,9 @@ void update_mesh_vertices(WorldState& w, double dt) {
   const auto& vel = w.particles.velocity;
   if (e.motion == VertexMotion::deformation) {
     const std::size_t np = w.particles.count();
-    if (e.deformation.size() != np) {  // first call (setup): start from the identity
-      e.deformation.assign(np, Mat3::Identity());
-      e.deformation_rate.assign(np, Mat3::Zero());
-    }
+    if (e.held_deformation.size() != np) init_held_rotations(w);  // first call (setup)
+    e.deformation.resize(np);
+    e.deformation_rate.resize(np);
     parallel_for_each(np, [&](std::size_t p) { particle_deformation(w, p); }, 256);
     const auto& mass = w.particles.mass;
     parallel_for_each(e.vertices.size(), [&](std::size_t v) {
