@@ -13,6 +13,8 @@
 //     bonded particles turn with their bond). Ḟ_p ← 0 in both. A vertex v with tet group G
 //     (the tets that currently hold v; tet t is particle t), weights w_t = m_t / Σ_G m:
 //       x_v = Σ w_t (y_t + F_t (X_v − x_t)),   v_v = Σ w_t (v_t + Ḟ_t (X_v − x_t)).
+//     Then render components (tets joined through shared vertices) of at most 8 tets are placed
+//     rigidly instead (rigid_small_components below), so debris cannot turn inside out.
 //     Rigid and affine motion with full families give F exact to round-off, so x_v is exact; a vertex
 //     is a convex combination of its group's predictions, each within |F_t| |X_v − x_t| (≤ ~3.5 tet
 //     sizes) of its particle, so it never extrapolates away from its group.
@@ -83,6 +85,80 @@ void particle_deformation(WorldState& w, std::size_t p) {
   Fd.setZero();
 }
 
+// Render components (tets joined through shared vertices) of at most kRigidComponentTets tets move
+// rigidly with their particles: x_v = ȳ + R (X_v − x̄), R the rotation of
+//   A = Σ m_t (y_t − ȳ)(x_t − x̄)ᵀ + μ Σ m_t R_t,  μ = 1e-3 tr(Σ m_t (x_t − x̄)(x_t − x̄)ᵀ) / Σ m_t
+// (R_t the rotation of F_t: the particles' own rotations fill what their positions leave free; a lone
+// tet turns with R_t), x̄, ȳ the mass-weighted reference and current centres. A few tets whose
+// particles are strongly and unevenly deformed (ductile debris held by longer bonds) would otherwise
+// mix inconsistent per-particle predictions at their shared vertices and could turn inside out; a
+// rigid copy cannot. Velocities keep the per-vertex value. Serial, in tet order: deterministic.
+constexpr std::uint32_t kRigidComponentTets = 8;
+
+void rigid_small_components(WorldState& w) {
+  EmbeddedMesh& e = w.embedded;
+  const auto& x = w.particles.reference_position;
+  const auto& y = w.particles.position;
+  const auto& mass = w.particles.mass;
+  const std::size_t nt = e.tets.size();
+  constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+  std::vector<std::uint32_t> parent(nt), first(e.vertices.size(), kNone);
+  for (std::uint32_t t = 0; t < nt; ++t) parent[t] = t;
+  auto find = [&](std::uint32_t a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  for (std::uint32_t t = 0; t < nt; ++t)
+    for (std::uint32_t v : e.tets[t]) {
+      if (first[v] == kNone) {
+        first[v] = t;
+        continue;
+      }
+      const std::uint32_t a = find(first[v]), b = find(t);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  std::vector<std::uint32_t> size(nt, 0);
+  for (std::uint32_t t = 0; t < nt; ++t) ++size[find(t)];
+  // Small components' tets, grouped by root (roots in increasing order).
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> small;  // (root, tet)
+  for (std::uint32_t t = 0; t < nt; ++t)
+    if (const std::uint32_t r = find(t); size[r] <= kRigidComponentTets) small.push_back({r, t});
+  std::sort(small.begin(), small.end());
+  std::vector<std::uint32_t> seen(e.vertices.size(), kNone);
+  for (std::size_t a = 0; a < small.size();) {
+    std::size_t b = a;
+    while (b < small.size() && small[b].first == small[a].first) ++b;
+    double M = 0.0;
+    Vec3 xbar = Vec3::Zero(), ybar = Vec3::Zero();
+    for (std::size_t k = a; k < b; ++k) {
+      const std::uint32_t t = small[k].second;
+      M += mass[t];
+      xbar += mass[t] * x[t];
+      ybar += mass[t] * y[t];
+    }
+    if (M > 0.0) {
+      xbar /= M;
+      ybar /= M;
+      Mat3 A = Mat3::Zero(), held = Mat3::Zero();
+      double spread = 0.0;
+      for (std::size_t k = a; k < b; ++k) {
+        const std::uint32_t t = small[k].second;
+        A += mass[t] * (y[t] - ybar) * (x[t] - xbar).transpose();
+        held += mass[t] * polar_rotation(e.deformation[t]);
+        spread += mass[t] * (x[t] - xbar).squaredNorm();
+      }
+      const Mat3 R = polar_rotation(spread > 0.0 ? Mat3(A + (1e-3 * spread / M) * held) : held);
+      for (std::size_t k = a; k < b; ++k)
+        for (std::uint32_t v : e.tets[small[k].second]) {
+          if (seen[v] == small[a].first) continue;
+          seen[v] = small[a].first;
+          e.vertices[v] = ybar + R * (e.reference_vertices[v] - xbar);
+        }
+    }
+    a = b;
+  }
+}
+
 }  // namespace
 
 void update_mesh_vertices(WorldState& w, double dt) {
@@ -115,6 +191,7 @@ void update_mesh_vertices(WorldState& w, double dt) {
         e.vertex_velocity[v] = vv / m;
       }
     }, 1024);
+    rigid_small_components(w);
     return;
   }
   if (e.motion == VertexMotion::embedded) {

@@ -379,7 +379,7 @@ Key build_spec() {
           choice("dust", {"drop", "points"}, "What becomes of the pieces `min_piece_tets` leaves out of the surface "
                  "files: `drop` writes them nowhere but the particle files; `points` writes them each frame as "
                  "dust.NNNN.ply (binary PLY points, one per particle of a dropped piece: x y z, velocity_x/y/z in "
-                 "m/s, radius in m of the sphere with the particle's (tet's) volume, piece = its `fragment_id`).")
+                 "m/s, radius in m of the sphere with the particle's (tet's) volume, piece = its `fragment_id`); nothing when `min_piece_tets` is 0.")
               .def("drop"),
       }).def(Json::object()),
   });
