@@ -92,7 +92,9 @@ void particle_deformation(WorldState& w, std::size_t p) {
 // tet turns with R_t), x̄, ȳ the mass-weighted reference and current centres. A few tets whose
 // particles are strongly and unevenly deformed (ductile debris held by longer bonds) would otherwise
 // mix inconsistent per-particle predictions at their shared vertices and could turn inside out; a
-// rigid copy cannot. Velocities keep the per-vertex value. Serial, in tet order: deterministic.
+// rigid copy cannot. Only components whose particles hold together (each within the component's
+// reference radius of its rigid prediction; for a single tet always) are placed rigidly. Velocities
+// keep the per-vertex value. Serial, in tet order: deterministic.
 constexpr std::uint32_t kRigidComponentTets = 8;
 
 void rigid_small_components(WorldState& w) {
@@ -147,7 +149,23 @@ void rigid_small_components(WorldState& w) {
         held += mass[t] * polar_rotation(e.deformation[t]);
         spread += mass[t] * (x[t] - xbar).squaredNorm();
       }
-      const Mat3 R = polar_rotation(spread > 0.0 ? Mat3(A + (1e-3 * spread / M) * held) : held);
+      // One tet: its own rotation, its own centre (round-off in x̄ must not make A a random rank-1 term).
+      const bool single = b - a == 1;
+      if (single) xbar = x[small[a].second], ybar = y[small[a].second];
+      const Mat3 R = polar_rotation(single ? held : Mat3(A + (1e-3 * spread / M) * held));
+      // Only a component whose particles still hold together: every particle within the component's
+      // reference radius of its rigid prediction. Otherwise (particles flying apart around a vertex
+      // they still share) the per-particle placement stays.
+      double radius = 0.0, residual = 0.0;
+      for (std::size_t k = a; k < b; ++k) {
+        const std::uint32_t t = small[k].second;
+        radius = std::max(radius, (x[t] - xbar).norm());
+        residual = std::max(residual, (y[t] - ybar - R * (x[t] - xbar)).norm());
+      }
+      if (residual > radius) {
+        a = b;
+        continue;
+      }
       for (std::size_t k = a; k < b; ++k)
         for (std::uint32_t v : e.tets[small[k].second]) {
           if (seen[v] == small[a].first) continue;
