@@ -18,8 +18,11 @@
 // free at one endpoint v: the intact faces of its tets that contain v but not the other endpoint
 // are torn (marked cracked, so pending, although their bond holds: a render-only crack of zero
 // width), and v is split again, which gives the group its own copy of v and separates the torn
-// faces. The surface stays closed (a torn face becomes two boundary triangles) and the edge ends
-// with two triangles per copy. Faces separated by a repair are checked in turn (at most 16 rounds).
+// faces; the other vertices of the torn faces are grouped again too (a torn face is never fresh, so
+// nothing else would look at them). The surface stays closed (a torn face becomes two boundary
+// triangles) and the edge ends with two triangles per copy. Faces separated by a repair are checked in turn (at most 16 rounds).
+// At setup (split_disconnected_vertices) every vertex is grouped once the same way, so vertices whose
+// star is not face-connected in the input mesh (hanging tets, initial cracks) start split.
 // Serial and in a fixed order: the result does not depend on the thread count. Cost is proportional
 // to the fresh faces (plus one pass over pending faces when there are fresh ones); nothing when no
 // face cracked this step.
@@ -268,7 +271,13 @@ std::size_t split_mesh_vertices(WorldState& w) {
     if (touched.empty()) break;
     std::sort(tear.begin(), tear.end());
     tear.erase(std::unique(tear.begin(), tear.end()), tear.end());
-    for (std::uint32_t pair : tear) e.pair_state[pair] = FaceState::cracked;
+    for (std::uint32_t pair : tear) {
+      e.pair_state[pair] = FaceState::cracked;
+      // A torn face never becomes fresh (it is no longer watched), so all its vertices are grouped
+      // again now: a torn face can disconnect the star of any of them.
+      const auto f = sorted_face(e.tets[e.pair_tets[pair][0]], e.pair_local[pair][0]);
+      touched.insert(touched.end(), f.begin(), f.end());
+    }
     if (!tear.empty()) {
       e.watched_pairs.erase(std::remove_if(e.watched_pairs.begin(), e.watched_pairs.end(),
                                            [&](std::uint32_t pair) { return std::binary_search(tear.begin(), tear.end(), pair); }),
@@ -278,6 +287,20 @@ std::size_t split_mesh_vertices(WorldState& w) {
       std::inplace_merge(e.pending.begin(), e.pending.begin() + static_cast<std::ptrdiff_t>(mid), e.pending.end());
       e.torn_faces_total += tear.size();
     }
+  }
+  e.vertex_copies_total += copies;
+  return copies;
+}
+
+std::size_t split_disconnected_vertices(WorldState& w) {
+  EmbeddedMesh& e = w.embedded;
+  Scratch sc;
+  std::size_t copies = 0;
+  const auto nv = static_cast<std::uint32_t>(e.vertices.size());
+  for (std::uint32_t v = 0; v < nv; ++v) copies += split_vertex(w, v, sc);
+  if (copies) {
+    std::vector<std::uint32_t> separated;
+    separate_pending(e, separated);
   }
   e.vertex_copies_total += copies;
   return copies;
