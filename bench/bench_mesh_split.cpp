@@ -5,7 +5,12 @@
 //   BM_MeshSplit/N    the step in which N face-pair bonds broke: crack_faces + mesh_split +
 //                     mesh_vertices, N = 1e3 (part of one grid plane) and 1e5 (whole z planes, then
 //                     x planes): N faces become pending and are opened by splitting in that step.
-//   BM_MeshVertices   mesh_vertices alone (paid every step whenever surfaces are wanted).
+//   BM_MeshVertices   the per-frame vertex pass (VertexMotion::deformation: F_p of every particle
+//                     from its bonds, then every vertex; paid once per output frame).
+//   BM_MeshRotations/P  the per-step held-rotation system (mesh_rotations.cpp) with P % of the
+//                     particles tracked (0: an intact body, only the scan; 100: every particle damaged,
+//                     the worst case). Tracked particles are set directly; their families are intact, so
+//                     this measures the fitting branch (K, N, K⁻¹), the common one.
 // The mesh is restored from a snapshot outside the timed region before each BM_MeshSplit iteration.
 #include <algorithm>
 
@@ -101,6 +106,28 @@ void BM_MeshVertices(benchmark::State& state) {
   state.counters["vertices"] = static_cast<double>(w.embedded.vertices.size());
 }
 BENCHMARK(BM_MeshVertices)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+void BM_MeshRotations(benchmark::State& state) {
+  const auto percent = static_cast<std::size_t>(state.range(0));
+  const int threads = static_cast<int>(state.range(1));
+  World& world = world_for(kParticles, threads);
+  WorldState& w = world.state_mutable();
+  const auto tracked = w.embedded.held_tracked;
+  const std::size_t n = w.particles.count();
+  for (std::size_t p = 0; p < n; ++p) w.embedded.held_tracked[p] = (p * 100 < percent * n) ? 1 : tracked[p];
+  for (auto _ : state) arena(threads).execute([&] { systems::update_held_rotations(w); });
+  state.counters["tracked"] = static_cast<double>(std::count(w.embedded.held_tracked.begin(), w.embedded.held_tracked.end(), 1));
+  w.embedded.held_tracked = tracked;
+}
+BENCHMARK(BM_MeshRotations)
+    ->ArgNames({"percent", "threads"})
+    ->Args({0, 1})
+    ->Args({0, 2})
+    ->Args({10, 1})
+    ->Args({100, 1})
+    ->Args({100, 2})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace perifx::bench

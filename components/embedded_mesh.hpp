@@ -56,8 +56,14 @@ struct EmbeddedMesh {
   std::vector<double> weight_value;
 
   // ---- per particle = per tet (VertexMotion::deformation) ----
-  std::vector<Mat3> deformation;       // F_p, the particle's local deformation gradient (or its last rotation)
+  // Derived, evaluated when the mesh is read (systems/mesh_vertices.cpp):
+  std::vector<Mat3> deformation;       // F_p, the particle's local deformation gradient (or its held rotation)
   std::vector<Mat3> deformation_rate;  // Ḟ_p, 1/s (zero where F_p is a held rotation)
+  // Step state, kept every step by the mesh_rotations system (systems/mesh_rotations.cpp) for tracked
+  // particles (family does not fit, or a bond broke): S_p = F_p of the last step, a rotation (the held
+  // rotation) where the family does not fit. Untouched (identity) for particles never tracked.
+  std::vector<Mat3> held_deformation;
+  std::vector<std::uint8_t> held_tracked;  // 1 once p is tracked (never goes back to 0)
 
   // ---- per tet ----
   std::vector<std::array<std::uint32_t, 4>> tets;        // current vertex indices (splitting rewrites)
@@ -85,6 +91,7 @@ struct EmbeddedMesh {
   // ---- counters ----
   std::uint64_t crack_faces_total = 0;   // pairs that ever became cracked (initial cracks included)
   std::uint64_t vertex_copies_total = 0;
+  std::uint64_t torn_faces_total = 0;    // intact faces opened to repair pinched (non-manifold) edges (mesh_split.cpp)
   std::uint32_t original_vertex_count = 0;
 
   std::size_t vertex_count() const { return vertices.size(); }

@@ -87,7 +87,7 @@ namespace fs = std::filesystem;
 
 // particles.NNNN.vtu, surface.NNNN.obj ...: the frame number, or -1 for other names.
 long long frame_number(const std::string& name) {
-  static const std::regex kFrame(R"((particles|surface|tets)\.(\d+)\.(vtu|ply|obj|vtp))");
+  static const std::regex kFrame(R"((particles|surface|tets|dust)\.(\d+)\.(vtu|ply|obj|vtp))");
   std::smatch m;
   return std::regex_match(name, m, kFrame) ? std::stoll(m[2].str()) : -1;
 }
@@ -253,6 +253,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
 
   double step_wall = 0.0, output_wall = 0.0;
   SurfaceMesh last_surface;  // the last written frame's surface (the animation exports' topology)
+  const bool dust = sc.output.dust_points && sc.output.min_piece_tets > 0;
   auto write_frame = [&](std::uint64_t k) {
     const auto t0 = clock::now();
     const auto fields = selected_fields(world);
@@ -286,6 +287,28 @@ RunSummary run_world(World& world, const RunOptions& options) {
                            {fragment_data, fragment_data + fragment.count});
         tets_pvd.add(world.time(), frame_name(k, "vtu", "tets"));
       }
+    }
+    // Dust (output.dust = points): the particles of the pieces the surface leaves out, as PLY points.
+    if (dust && world.has_embedded_mesh()) {
+      const std::vector<std::uint32_t> dust_ids = world.dust_particles();
+      const auto y = world.positions();
+      const auto v = world.velocities();
+      const WorldState& st = world.state();
+      std::vector<Vec3> where, speed;
+      std::vector<double> radius;
+      std::vector<std::uint32_t> piece;
+      for (std::uint32_t p : dust_ids) {
+        where.push_back(y[p]);
+        speed.push_back(v[p]);
+        radius.push_back(std::cbrt(3.0 * st.particles.volume[p] / (4.0 * 3.14159265358979323846)));
+        piece.push_back(st.derived.fragment_id[p]);
+      }
+      const std::size_t n = dust_ids.size();
+      const std::vector<FieldView> dust_fields = {
+          {"velocity", FieldType::f64, 3, FieldLocation::particle, speed.data(), n, "m/s", "particle velocity"},
+          {"radius", FieldType::f64, 1, FieldLocation::particle, radius.data(), n, "m", "radius of the sphere of the particle's volume"},
+          {"piece", FieldType::u32, 1, FieldLocation::particle, piece.data(), n, "1", "fragment_id of the dropped piece"}};
+      io::write_ply_points(dir / frame_name(k, "ply", "dust"), where, dust_fields);
     }
     // Rigid projectiles: one CSV row per projectile and frame; the whole file is rewritten
     // atomically each frame, so a reader never sees a half-written row.

@@ -239,6 +239,11 @@ TetMeshView World::reference_mesh() const {
   return {w.mesh.vertices, w.mesh.tets, w.mesh.vertices};
 }
 
+std::vector<std::uint32_t> World::dust_particles() const {
+  field("fragment_id");  // current in derived.fragment_id
+  return systems::dust_particles(impl_->state->derived.fragment_id, impl_->scene.output.min_piece_tets);
+}
+
 SurfaceMesh World::surface() const {
   WorldState& w = *impl_->state;
   SurfaceMesh surface;

@@ -23,6 +23,10 @@
 
 namespace perifx::systems {
 
+// mesh_split.cpp: splits every vertex whose tets are not joined through intact faces holding it;
+// returns the copies made. Used only here, at setup.
+std::size_t split_disconnected_vertices(WorldState& world);
+
 void embed_vertex(WorldState& w, std::uint32_t v, const std::vector<std::uint32_t>& group) {
   EmbeddedMesh& e = w.embedded;
   const auto& x = w.particles.reference_position;
@@ -156,6 +160,11 @@ void setup_embedded_mesh(WorldState& w, const std::vector<std::array<std::int32_
     for (std::uint32_t q = e.incidence_offsets[v]; q < e.incidence_offsets[v + 1]; ++q) group.push_back(e.incidence[q] / 4);
     if (!group.empty()) embed_vertex(w, v, group);
   }
+  // A vertex whose tets are not joined through intact faces that hold it (a tet hanging by a vertex or
+  // an edge in the input mesh; the faces of initial cracks) is split now: later splits only look at
+  // vertices of fresh crack faces, and a hanging tet has none at such a vertex, so it would stay tied
+  // to the rest there after its bonds break.
+  split_disconnected_vertices(w);
   update_mesh_vertices(w, 0.0);
 }
 

@@ -11,6 +11,24 @@
 
 namespace perifx::systems {
 
+std::vector<std::uint32_t> piece_tet_counts(const std::vector<std::uint32_t>& fragment_id) {
+  std::vector<std::uint32_t> count;
+  for (std::uint32_t id : fragment_id) {
+    if (id >= count.size()) count.resize(std::size_t{id} + 1, 0);
+    ++count[id];
+  }
+  return count;
+}
+
+std::vector<std::uint32_t> dust_particles(const std::vector<std::uint32_t>& fragment_id, std::uint32_t min_piece_tets) {
+  std::vector<std::uint32_t> out;
+  if (min_piece_tets == 0) return out;
+  const auto count = piece_tet_counts(fragment_id);
+  for (std::uint32_t p = 0; p < fragment_id.size(); ++p)
+    if (count[fragment_id[p]] < min_piece_tets) out.push_back(p);
+  return out;
+}
+
 void extract_surface(const WorldState& w, const std::vector<std::uint32_t>* fragment_id, SurfaceMesh& out,
                      std::uint32_t min_piece_tets) {
   static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
@@ -20,12 +38,7 @@ void extract_surface(const WorldState& w, const std::vector<std::uint32_t>* frag
   // Tets per piece, when small pieces are dropped (ids are below 2·tets: see fragments.cpp).
   std::vector<std::uint32_t> piece_tets;
   const bool drop = min_piece_tets > 0 && fragment_id && fragment_id->size() == e.tets.size();
-  if (drop) {
-    for (std::uint32_t id : *fragment_id) {
-      if (id >= piece_tets.size()) piece_tets.resize(std::size_t{id} + 1, 0);
-      ++piece_tets[id];
-    }
-  }
+  if (drop) piece_tets = piece_tet_counts(*fragment_id);
   for (std::uint32_t t = 0; t < e.tets.size(); ++t)
     for (int k = 0; k < 4; ++k) {
       const std::int32_t pair = e.face_pair[t][static_cast<std::size_t>(k)];

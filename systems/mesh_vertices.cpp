@@ -6,12 +6,15 @@
 //     F_p is used when p has ≥ 4 alive bonds, K is well conditioned (‖K‖‖K⁻¹‖ ≤ 1e4, Frobenius) and
 //     F_p is well conditioned (det > 0, ‖F‖², ‖F⁻¹‖² ≤ 12, i.e. no stretch beyond ~3.5×). A badly
 //     stretched or inverted F_p is replaced by its own rotation. With too few bonds or K
-//     ill-conditioned, F_p ← the rotation of N + μ R_old (R_old: rotation of the previous F_p,
-//     μ = 1e-3 tr K): the rotation that best maps the few alive bonds, the last rotation filling what
-//     they leave free (a lone particle keeps its last rotation; two bonded particles turn with their
-//     bond). Ḟ_p ← 0 in both. A vertex v with tet group G
+//     ill-conditioned, F_p ← the particle's held rotation, which is step state kept by the
+//     mesh_rotations system (mesh_rotations.cpp): every step, the rotation of N + μ R_old (R_old: the
+//     rotation of the last step, μ = 1e-3 tr K), i.e. the rotation that best maps the few alive bonds,
+//     the last rotation filling what they leave free (a lone particle keeps its last rotation; two
+//     bonded particles turn with their bond). Ḟ_p ← 0 in both. A vertex v with tet group G
 //     (the tets that currently hold v; tet t is particle t), weights w_t = m_t / Σ_G m:
 //       x_v = Σ w_t (y_t + F_t (X_v − x_t)),   v_v = Σ w_t (v_t + Ḟ_t (X_v − x_t)).
+//     Then render components (tets joined through shared vertices) of at most 8 tets are placed
+//     rigidly instead (rigid_small_components below), so debris cannot turn inside out.
 //     Rigid and affine motion with full families give F exact to round-off, so x_v is exact; a vertex
 //     is a convex combination of its group's predictions, each within |F_t| |X_v − x_t| (≤ ~3.5 tet
 //     sizes) of its particle, so it never extrapolates away from its group.
@@ -23,11 +26,14 @@
 //   VertexMotion::embedded: x_v = X_v + Σ_p w_vp (y_p − x_p), v_v = Σ_p w_vp v_p with the affine-fit
 //     weights of systems/embedded_mesh.cpp (fixed at setup/split; extrapolates once the support
 //     particles separate, kept for comparison).
-// In the step graph the deformation mode does nothing: the engine evaluates it when the mesh is read
-// (World::surface, World::tet_mesh), so its cost is per output frame, not per step, and "the last
-// rotation" a bondless particle keeps is the one of the last evaluation.
+// In the step graph the deformation mode does nothing here (mesh_rotations keeps the held rotations):
+// the engine evaluates it when the mesh is read (World::surface, World::tet_mesh), so its cost is per
+// output frame, not per step. The evaluation is a pure function of the state: it writes only F_p, Ḟ_p
+// and the vertex positions and velocities, which nothing else reads, so reading the mesh twice gives
+// the same bits and does not change the run.
 // Parallel over particles, then over vertices, each element written by one task: deterministic.
-// Reads:  position, velocity, bond_alive, mesh.   Writes: mesh (F, Ḟ, vertex positions and velocities).
+// Reads:  position, velocity, bond_alive, mesh (held rotations).
+// Writes: mesh (F, Ḟ, vertex positions and velocities: derived, not state, in the deformation mode).
 #include <algorithm>
 
 #include "parallel.hpp"
@@ -37,15 +43,8 @@ namespace perifx::systems {
 
 namespace {
 
-// Squared Frobenius norms of A and A⁻¹ (A⁻¹ via the adjugate); false when det A ≤ 0.
-bool conditioned(const Mat3& A, double limit_sq, double& det) {
-  det = A.determinant();
-  if (!(det > 0.0)) return false;
-  const Mat3 inv = A.inverse();
-  return A.squaredNorm() <= limit_sq && inv.squaredNorm() <= limit_sq;
-}
-
-// F_p and Ḟ_p of one particle (see the header comment).
+// F_p and Ḟ_p of one particle (see the header comment). A pure function of the state: the fallback
+// reads the held rotation that the mesh_rotations system keeps current every step.
 void particle_deformation(WorldState& w, std::size_t p) {
   EmbeddedMesh& e = w.embedded;
   const Bonds& b = w.bonds;
@@ -67,12 +66,10 @@ void particle_deformation(WorldState& w, std::size_t p) {
   }
   Mat3& F = e.deformation[p];
   Mat3& Fd = e.deformation_rate[p];
-  double det = 0.0;
-  // K's scale is Σ ω V |ξ|²; the condition test is scale-free (‖K‖²‖K⁻¹‖² ≤ 1e8 with ‖I‖² = 3).
-  if (alive >= 4 && (det = K.determinant()) > 0.0 && K.squaredNorm() * K.inverse().squaredNorm() <= 1e8) {
+  if (family_fits(K, alive)) {
     const Mat3 Kinv = K.inverse();
     const Mat3 Fnew = N * Kinv;
-    if (conditioned(Fnew, 12.0, det)) {
+    if (deformation_conditioned(Fnew)) {
       F = Fnew;
       Fd = Nd * Kinv;
       return;
@@ -81,13 +78,103 @@ void particle_deformation(WorldState& w, std::size_t p) {
     Fd.setZero();
     return;
   }
-  // Too few bonds or K ill-conditioned: the rotation that best maps the alive bonds (regularized
-  // Kabsch: maximize tr(Rᵀ M), M = Σ ω V η⊗ξ + μ R_old). The last rotation fills the directions the
-  // bonds do not fix (about a lone bond's axis; all of them for a particle with no bond).
-  const Mat3 held = polar_rotation(F);
-  const double mu = 1e-3 * std::max(K.trace(), 0.0);
-  F = alive > 0 && mu > 0.0 ? polar_rotation(N + mu * held) : held;
+  // Too few bonds or K ill-conditioned: the held rotation of the last step (mesh_rotations.cpp: the
+  // regularized-Kabsch rotation that best maps the alive bonds, the previous rotation filling what
+  // they leave free).
+  F = e.held_deformation[p];
   Fd.setZero();
+}
+
+// Render components (tets joined through shared vertices) of at most kRigidComponentTets tets move
+// rigidly with their particles: x_v = ȳ + R (X_v − x̄), R the rotation of
+//   A = Σ m_t (y_t − ȳ)(x_t − x̄)ᵀ + μ Σ m_t R_t,  μ = 1e-3 tr(Σ m_t (x_t − x̄)(x_t − x̄)ᵀ) / Σ m_t
+// (R_t the rotation of F_t: the particles' own rotations fill what their positions leave free; a lone
+// tet turns with R_t), x̄, ȳ the mass-weighted reference and current centres. A few tets whose
+// particles are strongly and unevenly deformed (ductile debris held by longer bonds) would otherwise
+// mix inconsistent per-particle predictions at their shared vertices and could turn inside out; a
+// rigid copy cannot. Only components whose particles hold together (each within the component's
+// reference radius of its rigid prediction; for a single tet always) are placed rigidly. Velocities
+// keep the per-vertex value. Serial, in tet order: deterministic.
+constexpr std::uint32_t kRigidComponentTets = 8;
+
+void rigid_small_components(WorldState& w) {
+  EmbeddedMesh& e = w.embedded;
+  const auto& x = w.particles.reference_position;
+  const auto& y = w.particles.position;
+  const auto& mass = w.particles.mass;
+  const std::size_t nt = e.tets.size();
+  constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+  std::vector<std::uint32_t> parent(nt), first(e.vertices.size(), kNone);
+  for (std::uint32_t t = 0; t < nt; ++t) parent[t] = t;
+  auto find = [&](std::uint32_t a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  for (std::uint32_t t = 0; t < nt; ++t)
+    for (std::uint32_t v : e.tets[t]) {
+      if (first[v] == kNone) {
+        first[v] = t;
+        continue;
+      }
+      const std::uint32_t a = find(first[v]), b = find(t);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  std::vector<std::uint32_t> size(nt, 0);
+  for (std::uint32_t t = 0; t < nt; ++t) ++size[find(t)];
+  // Small components' tets, grouped by root (roots in increasing order).
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> small;  // (root, tet)
+  for (std::uint32_t t = 0; t < nt; ++t)
+    if (const std::uint32_t r = find(t); size[r] <= kRigidComponentTets) small.push_back({r, t});
+  std::sort(small.begin(), small.end());
+  std::vector<std::uint32_t> seen(e.vertices.size(), kNone);
+  for (std::size_t a = 0; a < small.size();) {
+    std::size_t b = a;
+    while (b < small.size() && small[b].first == small[a].first) ++b;
+    double M = 0.0;
+    Vec3 xbar = Vec3::Zero(), ybar = Vec3::Zero();
+    for (std::size_t k = a; k < b; ++k) {
+      const std::uint32_t t = small[k].second;
+      M += mass[t];
+      xbar += mass[t] * x[t];
+      ybar += mass[t] * y[t];
+    }
+    if (M > 0.0) {
+      xbar /= M;
+      ybar /= M;
+      Mat3 A = Mat3::Zero(), held = Mat3::Zero();
+      double spread = 0.0;
+      for (std::size_t k = a; k < b; ++k) {
+        const std::uint32_t t = small[k].second;
+        A += mass[t] * (y[t] - ybar) * (x[t] - xbar).transpose();
+        held += mass[t] * polar_rotation(e.deformation[t]);
+        spread += mass[t] * (x[t] - xbar).squaredNorm();
+      }
+      // One tet: its own rotation, its own centre (round-off in x̄ must not make A a random rank-1 term).
+      const bool single = b - a == 1;
+      if (single) xbar = x[small[a].second], ybar = y[small[a].second];
+      const Mat3 R = polar_rotation(single ? held : Mat3(A + (1e-3 * spread / M) * held));
+      // Only a component whose particles still hold together: every particle within the component's
+      // reference radius of its rigid prediction. Otherwise (particles flying apart around a vertex
+      // they still share) the per-particle placement stays.
+      double radius = 0.0, residual = 0.0;
+      for (std::size_t k = a; k < b; ++k) {
+        const std::uint32_t t = small[k].second;
+        radius = std::max(radius, (x[t] - xbar).norm());
+        residual = std::max(residual, (y[t] - ybar - R * (x[t] - xbar)).norm());
+      }
+      if (residual > radius) {
+        a = b;
+        continue;
+      }
+      for (std::size_t k = a; k < b; ++k)
+        for (std::uint32_t v : e.tets[small[k].second]) {
+          if (seen[v] == small[a].first) continue;
+          seen[v] = small[a].first;
+          e.vertices[v] = ybar + R * (e.reference_vertices[v] - xbar);
+        }
+    }
+    a = b;
+  }
 }
 
 }  // namespace
@@ -99,10 +186,9 @@ void update_mesh_vertices(WorldState& w, double dt) {
   const auto& vel = w.particles.velocity;
   if (e.motion == VertexMotion::deformation) {
     const std::size_t np = w.particles.count();
-    if (e.deformation.size() != np) {  // first call (setup): start from the identity
-      e.deformation.assign(np, Mat3::Identity());
-      e.deformation_rate.assign(np, Mat3::Zero());
-    }
+    if (e.held_deformation.size() != np) init_held_rotations(w);  // first call (setup)
+    e.deformation.resize(np);
+    e.deformation_rate.resize(np);
     parallel_for_each(np, [&](std::size_t p) { particle_deformation(w, p); }, 256);
     const auto& mass = w.particles.mass;
     parallel_for_each(e.vertices.size(), [&](std::size_t v) {
@@ -123,6 +209,7 @@ void update_mesh_vertices(WorldState& w, double dt) {
         e.vertex_velocity[v] = vv / m;
       }
     }, 1024);
+    rigid_small_components(w);
     return;
   }
   if (e.motion == VertexMotion::embedded) {

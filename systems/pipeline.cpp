@@ -4,7 +4,8 @@
 //   → dilatation → bond_pass (plasticity + elastic force + fracture test + damage, one bond pass)
 //   external_loads (gravity + scene loads; reads the drifted positions and the half-step velocity)
 //   → (projectile_contact) → kick_end
-//   → (fracture_threshold) → (crack_faces → mesh_split) → (mesh_vertices)     (embedded mesh, §5.2)
+//   → (fracture_threshold) → (crack_faces → mesh_split) → (mesh_rotations → mesh_vertices)
+//                                                                               (embedded mesh, §5.2)
 // FEM mode replaces dilatation + bond_pass by fem_force. The scheduler derives the actual graph from
 // each system's declared reads and writes; this order only settles who comes first on shared data.
 #include "pipeline.hpp"
@@ -50,7 +51,10 @@ std::vector<SystemDecl> step_pipeline(WorldState& w, PipelineOptions options) {
   if (!fem) {
     if (w.any_fracture) s.push_back(crack_face_system(w));
     if (w.any_fracture) s.push_back(mesh_split_system(w));
-    if (w.any_fracture || w.settings.mesh_output) s.push_back(mesh_vertex_system(w));
+    if (w.any_fracture || w.settings.mesh_output) {
+      s.push_back(mesh_rotation_system(w));
+      s.push_back(mesh_vertex_system(w));
+    }
   }
   return s;
 }

@@ -79,9 +79,21 @@ std::size_t update_piece_ids(WorldState& world);
 std::size_t collect_crack_faces(WorldState& world);
 std::size_t split_mesh_vertices(WorldState& world);
 void update_mesh_vertices(WorldState& world, double dt);
+// mesh_rotations.cpp: the held rotations of particles whose family does not fit (step state of
+// VertexMotion::deformation); init at setup, update every step. family_fits: ≥ 4 alive bonds and K
+// well conditioned; deformation_conditioned: det F > 0 and ‖F‖², ‖F⁻¹‖² ≤ 12.
+void init_held_rotations(WorldState& world);
+void update_held_rotations(WorldState& world);
+bool family_fits(const Mat3& K, std::uint32_t alive);
+bool deformation_conditioned(const Mat3& F);
 bool face_pair_shared(const EmbeddedMesh& mesh, std::uint32_t pair);
 void extract_surface(const WorldState& world, const std::vector<std::uint32_t>* fragment_id, SurfaceMesh& out,
                      std::uint32_t min_piece_tets = 0);
+// Tets (= particles) per piece id, indexed by id (mesh_surface.cpp): the one count that decides which
+// pieces are dust (fewer than min_piece_tets), for the surface and for the dust points.
+std::vector<std::uint32_t> piece_tet_counts(const std::vector<std::uint32_t>& fragment_id);
+// Particles of the pieces with fewer than min_piece_tets tets, in increasing order (none when 0).
+std::vector<std::uint32_t> dust_particles(const std::vector<std::uint32_t>& fragment_id, std::uint32_t min_piece_tets);
 // fem_setup.cpp / fem_force.cpp: the FEM reference solver (components/fem.hpp), particles = vertices.
 void setup_fem(WorldState& world);
 void compute_fem_force(const WorldState& world, const std::vector<Vec3>& y, std::vector<Vec3>& corner_scratch,
@@ -109,6 +121,7 @@ SystemDecl bond_pass_system(WorldState& world);  // fused plasticity + elastic_f
 SystemDecl crack_face_system(WorldState& world);
 SystemDecl mesh_split_system(WorldState& world);
 SystemDecl mesh_vertex_system(WorldState& world);
+SystemDecl mesh_rotation_system(WorldState& world);
 SystemDecl fem_force_system(WorldState& world);  // FEM mode: replaces dilatation + elastic_force
 
 }  // namespace perifx::systems

@@ -54,6 +54,7 @@ struct Args {
   bool quiet = false, overwrite = false, resume = false, force = false;
   bool render = false;  // run --render
   bool profile = false;  // run --profile
+  bool details = false;  // check-surface --details
 };
 
 long long parse_count(const std::string& flag, const std::string& value, long long min) {
@@ -183,6 +184,7 @@ int cmd_check_surface(const Args& a) {
   perifx::SurfaceCheckOptions opt;
   if (a.frames) opt.frames = static_cast<std::uint64_t>(parse_count("--frames", *a.frames, 1));
   if (a.horizon) opt.horizon = parse_positive("--horizon", *a.horizon);
+  opt.details = a.details;
   try {
     const auto report = perifx::check_run_surfaces(a.scene, opt);
     perifx::print_surface_check(std::cout, report);
@@ -505,6 +507,9 @@ int main(int argc, char** argv) {
   check_surface->add_option("RUN_DIR", a.scene, "run directory")->required();
   text_option(check_surface, "--frames", a.frames, "check frames 0..N-1 only");
   text_option(check_surface, "--horizon", a.horizon, "horizon in metres (default: mesh.json)");
+  check_surface->add_flag("--details", a.details,
+                          "list every counted element under its frame (far vertex, inverted shell with its tets, "
+                          "non-manifold edge, stretched triangle)");
 
   RenderArgs r;
   CLI::App* render = app.add_subcommand(

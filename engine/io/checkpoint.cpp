@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'P', 'E', 'R', 'I', 'F', 'X', 'C', 'K'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;  // 2: embedded.held_deformation, embedded.held_tracked
 
 // Worker-slot scratch: sized by the thread count, so a resume on another thread count keeps its own.
 bool thread_dependent(std::string_view name) { return name == "contact.pairs.bonded_stamp"; }
@@ -41,6 +41,7 @@ void for_each_scalar(W& w, F&& f) {
   auto& e = w.embedded;
   f(e.crack_faces_total);
   f(e.vertex_copies_total);
+  f(e.torn_faces_total);
   f(e.original_vertex_count);
   f(w.derived.fragment_count);
   f(w.derived.next_fragment_id);  // stable piece ids (systems/fragments.cpp)

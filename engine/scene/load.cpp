@@ -236,6 +236,7 @@ class Converter {
     s.output.fields = o["fields"].get<std::vector<std::string>>();
     s.output.checkpoint_every = o["checkpoint_every"].get<std::uint64_t>();
     s.output.min_piece_tets = o["min_piece_tets"].get<std::uint32_t>();
+    s.output.dust_points = o["dust"].get<std::string>() == "points";
     // Field names come from the systems' registry (systems/field_registry.hpp): checked here, once,
     // so `perifx check` catches a misspelt field before any meshing.
     const auto known = systems::step_fields();

@@ -376,6 +376,11 @@ Key build_spec() {
           integer("min_piece_tets", "Pieces (components of alive bonds, `fragment_id`) with fewer tets than this "
                   "are left out of the surface files (obj, surface_ply, surface_vtp, cache, gltf) and pieces.csv: dust. 0 keeps every piece; "
                   "the particle files keep every particle.").ge(0).def(0),
+          choice("dust", {"drop", "points"}, "What becomes of the pieces `min_piece_tets` leaves out of the surface "
+                 "files: `drop` writes them nowhere but the particle files; `points` writes them each frame as "
+                 "dust.NNNN.ply (binary PLY points, one per particle of a dropped piece: x y z, velocity_x/y/z in "
+                 "m/s, radius in m of the sphere with the particle's (tet's) volume, piece = its `fragment_id`); nothing when `min_piece_tets` is 0.")
+              .def("drop"),
       }).def(Json::object()),
   });
 }

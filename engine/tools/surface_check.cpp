@@ -115,6 +115,17 @@ SurfaceCheckReport check_run_surfaces(const std::filesystem::path& dir, const Su
           return found;
         });
         c.far_vertices += !found;
+        if (!found && options.details) {
+          double nearest = kInfinity;
+          for (std::size_t p = 0; p < particles.position.size(); ++p)
+            if (!have_pieces || particles.fragment[p] == vertex_piece[v])
+              nearest = std::min(nearest, (particles.position[p] - s.vertex[v]).norm());
+          char line[256];
+          std::snprintf(line, sizeof line, "far vertex source %u piece %u at (%.6g %.6g %.6g): nearest particle of its piece %.4g m = %.3g delta",
+                        s.source.size() == nv ? s.source[v] : v, vertex_piece[v], s.vertex[v].x(), s.vertex[v].y(),
+                        s.vertex[v].z(), nearest, nearest / delta);
+          c.details.push_back(line);
+        }
       }
     }
     // Edges: directed uses per undirected welded edge; shells by union over edges.
@@ -143,6 +154,19 @@ SurfaceCheckReport check_run_surfaces(const std::filesystem::path& dir, const Su
       if (faces.size() != 2) {
         ++(faces.size() < 2 ? c.open_edges : c.nonmanifold_edges);
         shell_open[find(faces[0])] = 1;
+        if (options.details) {
+          std::string line = faces.size() < 2 ? "open" : "non-manifold";
+          line += " edge sources ";
+          line += std::to_string(s.source.size() == nv ? s.source[key.first] : key.first);
+          line += '-';
+          line += std::to_string(s.source.size() == nv ? s.source[key.second] : key.second);
+          line += ", tets";
+          for (auto f : faces) {
+            line += ' ';
+            line += std::to_string(s.tet.size() == s.triangle.size() ? s.tet[f] : f);
+          }
+          c.details.push_back(line);
+        }
       }
     struct Shell {
       double volume = 0.0;
@@ -166,6 +190,21 @@ SurfaceCheckReport check_run_surfaces(const std::filesystem::path& dir, const Su
         enclosed = enclosed || (other != root && !shell_open[other] && outer.volume > 0.0 && outer.piece == sh.piece &&
                                 (outer.lo.array() <= sh.lo.array()).all() && (sh.hi.array() <= outer.hi.array()).all());
       ++(enclosed ? c.cavities : c.inverted_shells);
+      if (!enclosed && options.details) {
+        std::vector<std::uint32_t> tets;
+        for (std::uint32_t f = 0; f < s.triangle.size(); ++f)
+          if (find(f) == root) tets.push_back(s.tet.size() == s.triangle.size() ? s.tet[f] : f);
+        std::sort(tets.begin(), tets.end());
+        tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
+        char head[96];
+        std::snprintf(head, sizeof head, "inverted shell piece %u volume %.3g m^3, tets", sh.piece, sh.volume);
+        std::string line = head;
+        for (auto t : tets) {
+          line += ' ';
+          line += std::to_string(t);
+        }
+        c.details.push_back(line);
+      }
     }
     // Stretched triangles.
     if (s.reference.size() == nv && s.tet.size() == s.triangle.size() && particles.position.size() == reference_particles.size()) {
@@ -190,6 +229,11 @@ SurfaceCheckReport check_run_surfaces(const std::filesystem::path& dir, const Su
           return particle_stretch > limit;
         });
         c.stretched_triangles += particle_stretch <= limit;
+        if (particle_stretch <= limit && options.details) {
+          char line[160];
+          std::snprintf(line, sizeof line, "stretched triangle of tet %u: edge ratio %.3g, its particles' neighbourhood %.3g", p, worst, particle_stretch);
+          c.details.push_back(line);
+        }
       }
     }
     report.frames.push_back(c);
@@ -213,6 +257,7 @@ void print_surface_check(std::ostream& out, const SurfaceCheckReport& r) {
                   static_cast<unsigned long long>(f.frame), f.time, f.vertices, f.triangles, f.pieces, f.far_vertices,
                   f.inverted_shells, f.open_edges, f.nonmanifold_edges, stretched, f.longest_edge, f.cavities);
     out << buf;
+    for (const auto& line : f.details) out << "       " << line << "\n";
     total.far_vertices += f.far_vertices;
     total.inverted_shells += f.inverted_shells;
     total.open_edges += f.open_edges;

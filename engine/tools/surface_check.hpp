@@ -24,6 +24,7 @@
 #include <iosfwd>
 #include <optional>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace perifx {
@@ -37,6 +38,7 @@ struct SurfaceCheckOptions {
   std::optional<std::uint64_t> frames;  // check frames 0..N−1 only
   double horizon = 0.0;                 // δ, m; 0 = from mesh.json
   double stretch_ratio = 3.0;
+  bool details = false;                 // list every counted element (SurfaceFrameCheck::details)
 };
 
 struct SurfaceFrameCheck {
@@ -47,6 +49,9 @@ struct SurfaceFrameCheck {
   std::size_t cavities = 0;            // negative closed shells inside a positive one (not counted in issues)
   long long stretched_triangles = -1;  // -1: the file has no reference positions / tets
   double longest_edge = 0.0;           // m
+  // With SurfaceCheckOptions::details: one line per far vertex, inverted shell, non-manifold edge and
+  // stretched triangle (embedded-mesh vertex = `source`, tets = particles, piece), for diagnosis.
+  std::vector<std::string> details;
   std::size_t issues() const {
     return far_vertices + inverted_shells + open_edges + nonmanifold_edges + static_cast<std::size_t>(std::max(0LL, stretched_triangles));
   }

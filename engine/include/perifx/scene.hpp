@@ -229,6 +229,7 @@ struct Output {
   std::vector<std::string> fields;     // particle fields to write; empty = all registered fields
   std::uint64_t checkpoint_every = 10; // frames between checkpoints (perifx run --resume); 0 = never
   std::uint32_t min_piece_tets = 0;    // surface files leave out pieces with fewer tets (0: keep all)
+  bool dust_points = false;            // "dust": "points": the left-out pieces' particles as dust.NNNN.ply
 };
 
 struct Scene {

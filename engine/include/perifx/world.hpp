@@ -136,6 +136,8 @@ class World {
   bool has_embedded_mesh() const;   // peridynamics worlds (the FEM solver has no cracking mesh)
   TetMeshView tet_mesh() const;       // the cracking mesh, current vertex positions (see TetMeshView)
   TetMeshView reference_mesh() const; // the mesh as built, before any split, at rest
+  // Particles of the pieces surface() leaves out (fewer than output.min_piece_tets tets), increasing.
+  std::vector<std::uint32_t> dust_particles() const;
   SurfaceMesh surface() const;      // boundary triangles of the (split) mesh, with piece ids; pieces below output.min_piece_tets left out
 
   // Checkpoints: the complete state (every array and counter) in one file, written atomically, from

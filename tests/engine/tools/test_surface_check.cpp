@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -121,4 +123,69 @@ TEST_CASE("output.min_piece_tets leaves small pieces out of the surface files") 
   for (auto piece : kept) CHECK(tets[piece] >= largest);
   CHECK(kept.size() == tets.size() - small);
   CHECK(b.vertices.size() < a.vertices.size());
+}
+
+TEST_CASE("output.dust = points writes exactly the left-out pieces' particles as dust.NNNN.ply") {
+  // The piece size that leaves some pieces out after 150 steps (as in the case above).
+  auto sc = torn_slab();
+  std::uint32_t largest = 0;
+  {
+    World probe(sc);
+    probe.step(150);
+    const FieldView f = probe.field("fragment_id");
+    const auto* id = static_cast<const std::uint32_t*>(f.data);
+    std::map<std::uint32_t, std::uint32_t> tets;
+    for (std::size_t i = 0; i < f.count; ++i) ++tets[id[i]];
+    for (const auto& [piece, n] : tets) largest = std::max(largest, n);
+  }
+  sc.output.ply = true;
+  sc.output.min_piece_tets = largest;
+  sc.output.dust_points = true;
+  const fs::path dir = temp_dir("dust");
+  {
+    World world(sc);
+    RunOptions opt;
+    opt.output_directory = dir;
+    opt.frames = 2;
+    run_world(world, opt);
+  }
+  std::size_t dust_total = 0, surface_frames = 0;
+  for (int k = 0; k <= 2; ++k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "%04d.ply", k);
+    const io::PlyContent particles = io::read_ply(dir / (std::string("particles.") + name));
+    const io::PlyContent dust = io::read_ply(dir / (std::string("dust.") + name));
+    const io::PlyContent surface = io::read_ply(dir / (std::string("surface.") + name));
+    const auto& frag = particles.vertex_properties.at("fragment_id");
+    const auto& volume = particles.vertex_properties.at("volume");
+    std::map<double, std::size_t> tets;
+    for (double id : frag) ++tets[id];
+    std::vector<std::size_t> expected;  // particles of pieces below min_piece_tets, in order
+    for (std::size_t p = 0; p < frag.size(); ++p)
+      if (tets[frag[p]] < largest) expected.push_back(p);
+    INFO("frame " << k);
+    REQUIRE(dust.surface.vertices.size() == expected.size());
+    CHECK(dust.surface.triangles.empty());
+    const auto& piece = dust.vertex_properties.at("piece");
+    const auto& radius = dust.vertex_properties.at("radius");
+    std::set<double> dust_pieces;
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+      const std::size_t p = expected[i];
+      CHECK(piece[i] == frag[p]);
+      CHECK(dust.surface.vertices[i] == particles.surface.vertices[p]);  // both written as float
+      CHECK(radius[i] == std::cbrt(3.0 * volume[p] / (4.0 * 3.14159265358979323846)));
+      CHECK(dust.vertex_properties.count("velocity_x") == 1);
+      dust_pieces.insert(piece[i]);
+    }
+    // The surface has every other piece and none of the dust pieces.
+    std::set<double> surface_pieces;
+    for (double id : surface.face_properties.at("fragment")) surface_pieces.insert(id);
+    for (double id : dust_pieces) CHECK(surface_pieces.count(id) == 0);
+    CHECK(surface_pieces.size() + dust_pieces.size() == tets.size());
+    dust_total += expected.size();
+    surface_frames += !surface.surface.triangles.empty();
+  }
+  MESSAGE("dust points over frames 0-2: " << dust_total << " (min_piece_tets " << largest << ")");
+  CHECK(dust_total > 0);
+  CHECK(surface_frames > 0);
 }

@@ -88,14 +88,20 @@ final_pos, final_src = read_surface_ply(os.path.join(run, f"surface.{last:04d}.p
 by_position = {}
 for p, s in zip(final_pos, final_src):
     by_position.setdefault(p, set()).add(s)
-source = []
+# Two embedded-mesh vertices can sit at the same float position (copies on either side of a crack
+# of zero width, e.g. a face torn to repair a pinched edge, while both sides still move alike): such
+# a cache vertex is at a surface vertex, but which one is ambiguous, so it is not compared later.
+source, unmatched, ambiguous = [], 0, 0
 for p in evaluated(last):
     key = tuple(float(struct.unpack("<f", struct.pack("<f", c))[0]) for c in p)
     s = by_position.get(key)
+    unmatched += not s
+    ambiguous += bool(s) and len(s) > 1
     source.append(next(iter(s)) if s and len(s) == 1 else None)
-unmatched = sum(s is None for s in source)
 if unmatched:
     fail(f"{unmatched} cache vertices are not at a vertex of surface.{last:04d}.ply at the last frame")
+if ambiguous:
+    print(f"{ambiguous} cache vertices sit where two surface vertices coincide (not compared)")
 
 first_pos, _ = read_surface_ply(os.path.join(run, "surface.0000.ply"))
 lo = [min(p[d] for p in first_pos) for d in range(3)]

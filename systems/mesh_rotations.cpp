@@ -1,0 +1,123 @@
+// Held rotations system (systems/README.md §6.5): the step state behind VertexMotion::deformation's
+// fallback. A particle whose alive family cannot give a deformation gradient (fewer than 4 alive
+// bonds, or the shape tensor K ill-conditioned; family_fits below) moves its vertices rigidly with a
+// held rotation R_p, and R_p must follow the particle every step, not only when the mesh is read:
+// otherwise the surface would depend on how often it is read.
+// Per particle p, every step, only for "tracked" particles (a fallback family, or at least one broken
+// bond: the only ones that are or may become fallback; intact particles with a good family are skipped
+// at the cost of one byte and one counter test):
+//   K = Σ ω ξ⊗ξ V_j,  N = Σ ω η⊗ξ V_j over the alive bonds (as mesh_vertices.cpp);
+//   family fits     → S_p ← N K⁻¹, or its rotation if badly stretched or inverted (the frame pass's F_p);
+//   family too poor → S_p ← rotation of N + μ R_old, μ = 1e-3 tr K, R_old = rotation of S_p of the
+//                     last step (R_old itself when p has no alive bond): regularized Kabsch.
+// A particle tracked for the first time was intact at the previous step, so its R_old is the rotation
+// of F over its whole original family at the current positions.
+// S_p (EmbeddedMesh::held_deformation) is part of the state (checkpointed); the per-frame vertex pass
+// (mesh_vertices.cpp) reads it for the fallback particles and is otherwise a pure function of the state.
+// Cost per step: bonds of the tracked particles (two outer products each); nothing for intact ones.
+// Parallel over particles, each writes its own S_p: deterministic for any thread count.
+// Reads:  position, bond_alive, damage (broken_bonds), mesh.   Writes: mesh (held_deformation, held_tracked).
+#include <algorithm>
+
+#include "parallel.hpp"
+#include "systems.hpp"
+
+namespace perifx::systems {
+
+bool family_fits(const Mat3& K, std::uint32_t alive) {
+  // K's scale is Σ ω V |ξ|²; the condition test is scale-free (‖K‖²‖K⁻¹‖² ≤ 1e8 with ‖I‖² = 3).
+  return alive >= 4 && K.determinant() > 0.0 && K.squaredNorm() * K.inverse().squaredNorm() <= 1e8;
+}
+
+bool deformation_conditioned(const Mat3& F) {
+  const double det = F.determinant();
+  if (!(det > 0.0)) return false;
+  return F.squaredNorm() <= 12.0 && F.inverse().squaredNorm() <= 12.0;
+}
+
+namespace {
+
+// K and N over p's bonds (alive ones only, or all); returns the number of bonds summed.
+std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N) {
+  const Bonds& b = w.bonds;
+  const auto& x = w.particles.reference_position;
+  const auto& y = w.particles.position;
+  const auto& vol = w.particles.volume;
+  K.setZero();
+  N.setZero();
+  std::uint32_t n = 0;
+  for (std::uint32_t k = b.offsets[p], end = b.offsets[p + 1]; k < end; ++k) {
+    if (alive_only && !b.alive[k]) continue;
+    const std::uint32_t j = b.neighbor[k];
+    const Vec3 xi = x[j] - x[p];
+    const Vec3 wxi = (b.weight[k] * vol[j]) * xi;
+    K += wxi * xi.transpose();
+    N += (y[j] - y[p]) * wxi.transpose();
+    ++n;
+  }
+  return n;
+}
+
+void step_particle(WorldState& w, std::size_t p) {
+  EmbeddedMesh& e = w.embedded;
+  Mat3 K, N;
+  const std::uint32_t alive = family_sums(w, p, true, K, N);
+  Mat3& S = e.held_deformation[p];
+  if (family_fits(K, alive)) {
+    const Mat3 F = N * K.inverse();
+    S = deformation_conditioned(F) ? F : polar_rotation(F);
+    e.held_tracked[p] = 1;
+    return;
+  }
+  Mat3 held;
+  if (e.held_tracked[p]) {
+    held = polar_rotation(S);
+  } else {  // intact (with a good family) until this step: the whole original family's rotation
+    Mat3 Ka, Na;
+    const std::uint32_t all = family_sums(w, p, false, Ka, Na);
+    held = family_fits(Ka, all) ? polar_rotation(Na * Ka.inverse()) : Mat3::Identity();
+  }
+  const double mu = 1e-3 * std::max(K.trace(), 0.0);
+  S = alive > 0 && mu > 0.0 ? polar_rotation(N + mu * held) : held;
+  e.held_tracked[p] = 1;
+}
+
+}  // namespace
+
+void init_held_rotations(WorldState& w) {
+  EmbeddedMesh& e = w.embedded;
+  const std::size_t np = w.particles.count();
+  e.held_deformation.assign(np, Mat3::Identity());
+  e.held_tracked.assign(np, 0);
+  // Particles whose family does not fit from the start (thin sheets, lone particles) or that already
+  // have a dead bond (initial cracks) are tracked from the start, holding the identity (the reference
+  // configuration). So an untracked particle always had every listed bond alive at the last step.
+  parallel_for_each(np, [&](std::size_t p) {
+    Mat3 K, N;
+    const std::uint32_t alive = family_sums(w, p, true, K, N);
+    const std::uint32_t listed = w.bonds.offsets[p + 1] - w.bonds.offsets[p];
+    if (alive < listed || !family_fits(K, alive)) e.held_tracked[p] = 1;
+  }, 256);
+}
+
+void update_held_rotations(WorldState& w) {
+  EmbeddedMesh& e = w.embedded;
+  if (e.motion != VertexMotion::deformation || e.tets.empty()) return;
+  const std::size_t np = w.particles.count();
+  if (e.held_deformation.size() != np) init_held_rotations(w);
+  const auto& broken = w.state.broken_bonds;
+  const bool counted = broken.size() == np;
+  parallel_for_each(np, [&](std::size_t p) {
+    if (!e.held_tracked[p] && !(counted && broken[p] > 0)) return;  // intact, family fits
+    step_particle(w, p);
+  }, 256);
+}
+
+SystemDecl mesh_rotation_system(WorldState& w) {
+  return {"mesh_rotations",
+          {Component::position, Component::bond_alive, Component::damage, Component::mesh},
+          {Component::mesh},
+          [&w] { update_held_rotations(w); }};
+}
+
+}  // namespace perifx::systems
