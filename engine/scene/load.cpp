@@ -234,6 +234,7 @@ class Converter {
     s.output.cache = has_format("cache");
     s.output.gltf = has_format("gltf");
     s.output.fields = o["fields"].get<std::vector<std::string>>();
+    s.output.smooth_cracks = o["smooth_cracks"].get<int>();
     s.output.checkpoint_every = o["checkpoint_every"].get<std::uint64_t>();
     s.output.min_piece_tets = o["min_piece_tets"].get<std::uint32_t>();
     // Field names come from the systems' registry (systems/field_registry.hpp): checked here, once,
