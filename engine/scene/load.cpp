@@ -408,6 +408,7 @@ class Converter {
     }
     if (geo.kind == Geometry::Kind::box || geo.kind == Geometry::Kind::sphere || geo.kind == Geometry::Kind::cylinder) {
       geo.seed = g["seed"].get<long long>();
+      for (const auto& axis : g["mirror"]) geo.mirror[static_cast<std::size_t>(axis.get<std::string>()[0] - 'x')] = true;
       // Breakable bodies get a jittered mesh unless the scene says otherwise (FORMAT.md, geometry.jitter).
       geo.jitter = g.contains("jitter") ? num(g["jitter"]) : -1.0;  // −1: decided below, once materials are known
     }

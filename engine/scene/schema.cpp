@@ -171,6 +171,14 @@ Key build_spec() {
                            "break (finite critical_stretch or fracture_energy), else 0.").ge(0).le(0.4).only({"box", "sphere", "cylinder"}),
           integer("seed", "Seed of the jitter: the same seed gives the same mesh, bit for bit.")
               .ge(0).def(1).only({"box", "sphere", "cylinder"}),
+          strings("mirror", {"x", "y", "z"}, "Make the structured mesh and its jitter mirror-symmetric about the body's "
+                  "centre plane normal to each listed axis (before `transform`): on that axis the cubes of the lower "
+                  "half are split around the mirror image of the upper half's diagonal, and mirror-image vertices get "
+                  "mirror-image offsets (vertices on the plane stay on it). A load and notch mirror-symmetric about "
+                  "that plane then give mirror-symmetric cracks; the default grid splits every cube around the same "
+                  "diagonal and jitters each vertex independently, so it is not symmetric. Needs an even number of "
+                  "cells along the axis. A crack running in a mirror plane follows it (the plane is flat).")
+              .def(Json::array()).only({"box", "sphere", "cylinder"}),
       }).one_of({{"edge_length"}, {"resolution"}, {"particles"}}, false).req(),
       object("transform", "transform", "Placement of the mesh: x ↦ R·(scale·x) + translate.", {
           vec3("translate", "Translation, m.").def(kZero),

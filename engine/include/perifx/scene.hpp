@@ -84,6 +84,8 @@ struct Geometry {
   long long particles = 0;             // surface: target tet count (0 = unset)
   double jitter = 0.0;                 // box, sphere, cylinder: vertex offset / shortest edge (geometry/jitter.cpp)
   long long seed = 1;                  // jitter seed
+  std::array<bool, 3> mirror = {false, false, false};  // box, sphere, cylinder: mesh and jitter mirror-
+                                       // symmetric about the centre plane ⟂ x, y, z (geometry/structured.cpp, jitter.cpp)
 };
 
 struct Transform {
