@@ -11,7 +11,6 @@ using namespace perifx;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 // Adds the rectangle p + s·u + t·w (s, t in [0, 1]) as a grid of m × k cells, two triangles each.
 void add_rect(CrackSurface& c, const Vec3& p, const Vec3& u, const Vec3& w, int m, int k) {
