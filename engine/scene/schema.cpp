@@ -380,7 +380,7 @@ Key build_spec() {
               .at_least(1).def(Json::array({"vtu", "ply"})),
           strings("fields", {}, "Particle fields to write; empty = all. Names: see Particle fields below.").def(Json::array()),
           integer("smooth_cracks", "Smoothing of the crack faces on the surface files (systems/README.md §6.6): this "
-                  "many Taubin iterations move the crack surface's vertices in the reference configuration towards a "
+                  "many iterations (two Laplacian steps each) move the crack surface's vertices in the reference configuration towards a "
                   "smooth surface, so cracks through the tet mesh do not show its stair-steps. Both sides of a crack "
                   "move together, every tet keeps at least 0.2 of its volume, the outer surface stays flat. Particles "
                   "and physics are not affected. 0 = off (crack faces are tet faces).").ge(0).le(50).def(3),
