@@ -82,7 +82,8 @@ void update_mesh_vertices(WorldState& world, double dt);
 bool face_pair_shared(const EmbeddedMesh& mesh, std::uint32_t pair);
 void extract_surface(const WorldState& world, const std::vector<std::uint32_t>* fragment_id, SurfaceMesh& out,
                      std::uint32_t min_piece_tets = 0);
-// crack_smoothing.cpp: Taubin smoothing of the crack surface's reference positions (output only);
+// crack_smoothing.cpp: Laplacian smoothing (2 steps per iteration) of the crack surface's reference
+// positions (output only);
 // iterations 0 restores the unsmoothed positions. Returns the original vertices moved.
 std::size_t smooth_crack_faces(WorldState& world, int iterations);
 // fem_setup.cpp / fem_force.cpp: the FEM reference solver (components/fem.hpp), particles = vertices.

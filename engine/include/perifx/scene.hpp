@@ -229,7 +229,7 @@ struct Output {
   bool gltf = false;
   bool surfaces_by_default = false;    // obj + surface_ply + cache were added because `formats` was not given
   std::vector<std::string> fields;     // particle fields to write; empty = all registered fields
-  int smooth_cracks = 3;               // Taubin iterations on the crack faces' reference positions (0: off)
+  int smooth_cracks = 3;               // smoothing iterations (2 Laplacian steps each) on the crack faces' reference positions (0: off)
   std::uint64_t checkpoint_every = 10; // frames between checkpoints (perifx run --resume); 0 = never
   std::uint32_t min_piece_tets = 0;    // surface files leave out pieces with fewer tets (0: keep all)
 };
