@@ -230,7 +230,10 @@ TetMeshView World::tet_mesh() const {
     return {w.particles.position, w.mesh.tets, w.particles.reference_position};
   // The default vertex motion is evaluated on demand (systems/mesh_vertices.cpp).
   if (!w.embedded.tets.empty() && w.embedded.motion == VertexMotion::deformation)
-    impl_->scheduler->execute([&] { systems::update_mesh_vertices(w, 0.0); });
+    impl_->scheduler->execute([&] {
+      if (w.any_fracture) systems::smooth_crack_faces(w, impl_->scene.output.smooth_cracks);
+      systems::update_mesh_vertices(w, 0.0);
+    });
   return {w.embedded.vertices, w.embedded.tets, w.embedded.reference_vertices};
 }
 
@@ -250,6 +253,7 @@ SurfaceMesh World::surface() const {
   if (w.embedded.tets.empty()) return surface;
   field("fragment_id");  // current in w.derived.fragment_id
   impl_->scheduler->execute([&] {
+    if (w.any_fracture) systems::smooth_crack_faces(w, impl_->scene.output.smooth_cracks);
     systems::update_mesh_vertices(w, 0.0);  // dt = 0: vertices current without moving them again
     systems::extract_surface(w, &w.derived.fragment_id, surface, impl_->scene.output.min_piece_tets);
   });

@@ -94,6 +94,10 @@ void extract_surface(const WorldState& world, const std::vector<std::uint32_t>* 
 std::vector<std::uint32_t> piece_tet_counts(const std::vector<std::uint32_t>& fragment_id);
 // Particles of the pieces with fewer than min_piece_tets tets, in increasing order (none when 0).
 std::vector<std::uint32_t> dust_particles(const std::vector<std::uint32_t>& fragment_id, std::uint32_t min_piece_tets);
+// crack_smoothing.cpp: Laplacian smoothing (2 steps per iteration) of the crack surface's reference
+// positions (output only);
+// iterations 0 restores the unsmoothed positions. Returns the original vertices moved.
+std::size_t smooth_crack_faces(WorldState& world, int iterations);
 // fem_setup.cpp / fem_force.cpp: the FEM reference solver (components/fem.hpp), particles = vertices.
 void setup_fem(WorldState& world);
 void compute_fem_force(const WorldState& world, const std::vector<Vec3>& y, std::vector<Vec3>& corner_scratch,

@@ -26,6 +26,7 @@
 #include "runner.hpp"
 #include "setup/preflight.hpp"
 #include "tools/compare.hpp"
+#include "tools/crack_stats.hpp"
 #include "tools/render/command.hpp"
 #include "tools/surface_check.hpp"
 
@@ -55,6 +56,9 @@ struct Args {
   bool render = false;  // run --render
   bool profile = false;  // run --profile
   bool details = false;  // check-surface --details
+  // crack-stats
+  std::optional<std::string> frame, mirror, mirror_at, load_axis, axis_tolerance, radius;
+  bool include_initial = false;
 };
 
 long long parse_count(const std::string& flag, const std::string& value, long long min) {
@@ -191,6 +195,38 @@ int cmd_check_surface(const Args& a) {
     return report.issues() ? kScene : kOk;
   } catch (const perifx::SurfaceCheckError& e) {
     std::cerr << "perifx: check-surface: " << e.what() << "\n";
+    return kScene;
+  }
+}
+
+// crack-stats RUN_DIR: crack geometry of one frame (engine/tools/crack_stats.hpp); exit 2 when the run
+// cannot be read.
+int cmd_crack_stats(const Args& a) {
+  perifx::CrackStatsOptions opt;
+  auto axis = [](const std::string& flag, const std::string& v) {
+    if (v == "x") return 0;
+    if (v == "y") return 1;
+    if (v == "z") return 2;
+    throw UsageError{flag + " expects x, y or z, got '" + v + "'"};
+  };
+  auto number = [](const std::string& flag, const std::string& v) {
+    char* end = nullptr;
+    const double x = std::strtod(v.c_str(), &end);
+    if (v.empty() || *end != '\0' || !std::isfinite(x)) throw UsageError{flag + " expects a number, got '" + v + "'"};
+    return x;
+  };
+  if (a.frame) opt.frame = static_cast<std::uint64_t>(parse_count("--frame", *a.frame, 0));
+  if (a.mirror) opt.mirror_axis = axis("--mirror", *a.mirror);
+  if (a.mirror_at) opt.mirror_at = number("--mirror-at", *a.mirror_at);
+  if (a.load_axis) opt.load_axis = axis("--load-axis", *a.load_axis);
+  if (a.axis_tolerance) opt.axis_tolerance_deg = parse_positive("--axis-tolerance", *a.axis_tolerance);
+  if (a.radius) opt.radius = parse_positive("--radius", *a.radius);
+  opt.exclude_initial = !a.include_initial;
+  try {
+    perifx::print_crack_stats(std::cout, perifx::crack_statistics(std::filesystem::path(a.scene), opt), opt);
+    return kOk;
+  } catch (const perifx::CrackStatsError& e) {
+    std::cerr << "perifx: crack-stats: " << e.what() << "\n";
     return kScene;
   }
 }
@@ -452,6 +488,7 @@ int run_command(const Args& a) {
   if (a.command == "compare") return cmd_compare(a);
   if (a.command == "check") return cmd_check(a);
   if (a.command == "check-surface") return cmd_check_surface(a);
+  if (a.command == "crack-stats") return cmd_crack_stats(a);
   if (a.command == "info") return cmd_info(a);
   std::cout << perifx::scene::scene_format_markdown();  // spec
   return kOk;
@@ -510,6 +547,19 @@ int main(int argc, char** argv) {
   check_surface->add_flag("--details", a.details,
                           "list every counted element under its frame (far vertex, inverted shell with its tets, "
                           "non-manifold edge, stretched triangle)");
+
+  CLI::App* crack_stats = app.add_subcommand(
+      "crack-stats", "crack geometry of one frame in the reference configuration: share of crack area with a normal "
+                     "near a grid axis, roughness (area over local best-fit plane area, mean dihedral angle), and "
+                     "with --mirror the crack's angle on each side of a symmetry plane");
+  crack_stats->add_option("RUN_DIR", a.scene, "run directory")->required();
+  text_option(crack_stats, "--frame", a.frame, "frame to measure (default: the last with a surface file)");
+  text_option(crack_stats, "--mirror", a.mirror, "x|y|z: axis normal to the symmetry plane (fits each side)");
+  text_option(crack_stats, "--mirror-at", a.mirror_at, "the symmetry plane's coordinate, m (default 0)");
+  text_option(crack_stats, "--load-axis", a.load_axis, "x|y|z: load axis for the angles (default y)");
+  text_option(crack_stats, "--axis-tolerance", a.axis_tolerance, "degrees (default 10)");
+  text_option(crack_stats, "--radius", a.radius, "roughness neighbourhood, m (default 3x mean crack edge)");
+  crack_stats->add_flag("--include-initial", a.include_initial, "also count the crack faces present on frame 0");
 
   RenderArgs r;
   CLI::App* render = app.add_subcommand(

@@ -20,16 +20,21 @@ namespace perifx::geometry {
 // Structured meshers. Each fills a grid of cubes of side ~cell (adjusted so a whole number of cells
 // spans the box) and splits every cube into 6 tets around its main diagonal (Freudenthal/Kuhn), which
 // gives a conforming mesh of congruent tets. Meshes are centered at the origin.
-TetMesh mesh_box(const Vec3& size, double cell);
+// mirror[a]: mirror-symmetric about the centre plane normal to axis a (when its cell count is even):
+// the cubes on the lower side are split around the mirror image of the upper side's diagonal.
+TetMesh mesh_box(const Vec3& size, double cell, const std::array<bool, 3>& mirror = {});
 // Sphere and cylinder: the cubes of a grid covering the shape, tets kept when their barycenter is
 // inside, then boundary vertices moved onto the true surface where that keeps every tet valid.
-TetMesh mesh_sphere(double radius, double cell);
-TetMesh mesh_cylinder(double radius, double height, int axis, double cell);
+TetMesh mesh_sphere(double radius, double cell, const std::array<bool, 3>& mirror = {});
+TetMesh mesh_cylinder(double radius, double height, int axis, double cell, const std::array<bool, 3>& mirror = {});
 // jitter.cpp: moves every vertex by a seeded random offset of up to `amplitude` × its shortest edge
 // per axis (boundary vertices only within their flat face or along their straight edge; corners and
 // curved boundaries fixed), keeping every tet above a quarter of its volume. Deterministic for a
 // seed. Returns how many vertices moved. Removes the grid's preferred crack directions.
-std::size_t jitter_vertices(TetMesh& mesh, double amplitude, std::uint64_t seed);
+// mirror[a]: a vertex's random offset depends on its position with coordinate a taken absolute (not on
+// its index) and is mirrored with it, so a mesh symmetric about the plane x_a = 0 stays symmetric
+// (vertices on the plane stay on it).
+std::size_t jitter_vertices(TetMesh& mesh, double amplitude, std::uint64_t seed, const std::array<bool, 3>& mirror = {});
 
 // TetGen .node/.ele (1- or 0-based, optional attributes and markers). `node_file` names the .node
 // file; the .ele beside it is read. Negatively oriented tets are flipped; degenerate ones are errors.

@@ -29,7 +29,7 @@ double signed_volume(const TetMesh& m, const std::array<std::uint32_t, 4>& t) {
 
 }  // namespace
 
-std::size_t jitter_vertices(TetMesh& mesh, double amplitude, std::uint64_t seed) {
+std::size_t jitter_vertices(TetMesh& mesh, double amplitude, std::uint64_t seed, const std::array<bool, 3>& mirror) {
   const std::size_t nv = mesh.vertices.size();
   if (!(amplitude > 0.0) || nv == 0) return 0;
   // Shortest incident edge per vertex: the local scale of the offset.
@@ -72,11 +72,29 @@ std::size_t jitter_vertices(TetMesh& mesh, double amplitude, std::uint64_t seed)
       mobility[v].setZero();
     }
   }
+  // Mirrored: the key is the position (mirrored coordinates taken absolute) on a 1e-9 lattice of the body's size
+  // (mirror images agree to round-off), the offset takes the position's signs, and a coordinate that
+  // is 0 (a vertex on a centre plane) gets no offset across that plane.
+  double extent = 0.0;
+  for (const Vec3& p : mesh.vertices) extent = std::max(extent, p.cwiseAbs().maxCoeff());
+  const double quantum = 1e-9 * (extent > 0.0 ? extent : 1.0);
   std::vector<Vec3> offset(nv);
   for (std::size_t v = 0; v < nv; ++v) {
-    const std::uint64_t h = mix(seed ^ mix(static_cast<std::uint64_t>(v)));
+    std::uint64_t key = static_cast<std::uint64_t>(v);
+    Vec3 sign = Vec3::Ones();
+    if (mirror[0] || mirror[1] || mirror[2]) {
+      key = 0x2545F4914F6CDD1Dull;
+      for (int a = 0; a < 3; ++a) {
+        const double x = mesh.vertices[v][a];
+        const bool m = mirror[static_cast<std::size_t>(a)];
+        const auto q = static_cast<std::int64_t>(std::llround((m ? std::abs(x) : x) / quantum));
+        key = mix(key ^ static_cast<std::uint64_t>(q));
+        if (m) sign[a] = q == 0 ? 0.0 : (x < 0.0 ? -1.0 : 1.0);
+      }
+    }
+    const std::uint64_t h = mix(seed ^ mix(key));
     const Vec3 u(unit(mix(h)), unit(mix(h + 1)), unit(mix(h + 2)));
-    offset[v] = amplitude * scale[v] * (mobility[v] * u);
+    offset[v] = amplitude * scale[v] * (mobility[v] * Vec3(u.cwiseProduct(sign)));
   }
   // Keep every tet well shaped: a tet that would fall below a quarter of its volume halves the
   // offsets of its vertices, a few times, then they stay where the grid put them.

@@ -44,7 +44,11 @@ void require_positive(double x, const char* what, const char* name) {
 // -> +e_c. All six share the cube's main diagonal, and because every cube uses the same diagonal
 // direction the split of each shared square face (along its (+,+) diagonal) agrees on both sides, so
 // the mesh is conforming.
-TetMesh freudenthal_grid(const Vec3& size, const std::array<std::size_t, 3>& n, const char* what) {
+// mirror[a]: on axis a (when its cell count is even) the cubes of the lower half step the other way
+// along that axis, so every cube's diagonal points away from the centre planes and the mesh is the
+// mirror image of itself; the square faces on a centre plane are split alike from both sides (their
+// diagonal depends only on the other two axes' halves), so it stays conforming.
+TetMesh freudenthal_grid(const Vec3& size, const std::array<std::size_t, 3>& n, const char* what, const std::array<bool, 3>& mirror = {}) {
   // In double: each n may be up to 2^29, so the integer product could overflow.
   const double cells = static_cast<double>(n[0]) * static_cast<double>(n[1]) * static_cast<double>(n[2]);
   if (cells > static_cast<double>(kMaxTets / 6)) {
@@ -78,12 +82,24 @@ TetMesh freudenthal_grid(const Vec3& size, const std::array<std::size_t, 3>& n, 
   for (std::size_t k = 0; k < n[2]; ++k) {
     for (std::size_t j = 0; j < n[1]; ++j) {
       for (std::size_t i = 0; i < n[0]; ++i) {
-        const auto v0 = static_cast<std::uint32_t>(i + sx * (j + sy * k));
+        const std::size_t c[3] = {i, j, k};
+        bool flip[3] = {false, false, false};
+        int flips = 0;
+        std::size_t corner[3] = {i, j, k};
+        for (int a = 0; a < 3; ++a) {
+          flip[a] = mirror[static_cast<std::size_t>(a)] && n[static_cast<std::size_t>(a)] % 2 == 0 && c[a] < n[static_cast<std::size_t>(a)] / 2;
+          if (flip[a]) ++corner[a], ++flips;
+        }
+        const auto v0 = static_cast<std::uint32_t>(corner[0] + sx * (corner[1] + sy * corner[2]));
+        // Unsigned wrap-around: adding 0 − step moves one vertex down along the axis.
+        std::uint32_t d[3];
+        for (int a = 0; a < 3; ++a) d[a] = flip[a] ? 0u - step[a] : step[a];
         for (int p = 0; p < 6; ++p) {
-          const std::uint32_t v1 = v0 + step[kPerm[p][0]];
-          const std::uint32_t v2 = v1 + step[kPerm[p][1]];
-          const std::uint32_t v3 = v2 + step[kPerm[p][2]];
-          mesh.tets.push_back(kOdd[p] ? Tet{v0, v1, v3, v2} : Tet{v0, v1, v2, v3});
+          const std::uint32_t v1 = v0 + d[kPerm[p][0]];
+          const std::uint32_t v2 = v1 + d[kPerm[p][1]];
+          const std::uint32_t v3 = v2 + d[kPerm[p][2]];
+          // Each flipped axis reverses the orientation once more.
+          mesh.tets.push_back(kOdd[p] != (flips % 2 == 1) ? Tet{v0, v1, v3, v2} : Tet{v0, v1, v2, v3});
         }
       }
     }
@@ -270,7 +286,7 @@ TetMesh carve_and_snap(const TetMesh& grid, const CurvedShape& shape, const char
 
 }  // namespace
 
-TetMesh mesh_box(const Vec3& size, double cell) {
+TetMesh mesh_box(const Vec3& size, double cell, const std::array<bool, 3>& mirror) {
   require_positive(size.x(), "mesh_box", "size.x");
   require_positive(size.y(), "mesh_box", "size.y");
   require_positive(size.z(), "mesh_box", "size.z");
@@ -278,15 +294,15 @@ TetMesh mesh_box(const Vec3& size, double cell) {
   const std::array<std::size_t, 3> n = {cells_along(size.x(), cell, "mesh_box"),
                                         cells_along(size.y(), cell, "mesh_box"),
                                         cells_along(size.z(), cell, "mesh_box")};
-  return freudenthal_grid(size, n, "mesh_box");
+  return freudenthal_grid(size, n, "mesh_box", mirror);
 }
 
-TetMesh mesh_sphere(double radius, double cell) {
+TetMesh mesh_sphere(double radius, double cell, const std::array<bool, 3>& mirror) {
   require_positive(radius, "mesh_sphere", "radius");
   require_positive(cell, "mesh_sphere", "cell");
   const double diameter = 2.0 * radius;
   const std::size_t n = cells_along(diameter, cell, "mesh_sphere");
-  const TetMesh grid = freudenthal_grid(Vec3::Constant(diameter), {n, n, n}, "mesh_sphere");
+  const TetMesh grid = freudenthal_grid(Vec3::Constant(diameter), {n, n, n}, "mesh_sphere", mirror);
 
   const double r2 = radius * radius;
   const double tiny = 1e-12 * radius;
@@ -302,7 +318,7 @@ TetMesh mesh_sphere(double radius, double cell) {
   return carve_and_snap(grid, sphere, "mesh_sphere");
 }
 
-TetMesh mesh_cylinder(double radius, double height, int axis, double cell) {
+TetMesh mesh_cylinder(double radius, double height, int axis, double cell, const std::array<bool, 3>& mirror) {
   require_positive(radius, "mesh_cylinder", "radius");
   require_positive(height, "mesh_cylinder", "height");
   require_positive(cell, "mesh_cylinder", "cell");
@@ -316,7 +332,7 @@ TetMesh mesh_cylinder(double radius, double height, int axis, double cell) {
   for (int a = 0; a < 3; ++a) {
     n[static_cast<std::size_t>(a)] = cells_along(size[a], cell, "mesh_cylinder");
   }
-  const TetMesh grid = freudenthal_grid(size, n, "mesh_cylinder");
+  const TetMesh grid = freudenthal_grid(size, n, "mesh_cylinder", mirror);
 
   auto radial = [axis](const Vec3& p) {
     Vec3 r = p;

@@ -234,6 +234,7 @@ class Converter {
     s.output.cache = has_format("cache");
     s.output.gltf = has_format("gltf");
     s.output.fields = o["fields"].get<std::vector<std::string>>();
+    s.output.smooth_cracks = o["smooth_cracks"].get<int>();
     s.output.checkpoint_every = o["checkpoint_every"].get<std::uint64_t>();
     s.output.min_piece_tets = o["min_piece_tets"].get<std::uint32_t>();
     s.output.dust_points = o["dust"].get<std::string>() == "points";
@@ -410,6 +411,7 @@ class Converter {
     }
     if (geo.kind == Geometry::Kind::box || geo.kind == Geometry::Kind::sphere || geo.kind == Geometry::Kind::cylinder) {
       geo.seed = g["seed"].get<long long>();
+      for (const auto& axis : g["mirror"]) geo.mirror[static_cast<std::size_t>(axis.get<std::string>()[0] - 'x')] = true;
       // Breakable bodies get a jittered mesh unless the scene says otherwise (FORMAT.md, geometry.jitter).
       geo.jitter = g.contains("jitter") ? num(g["jitter"]) : -1.0;  // −1: decided below, once materials are known
     }

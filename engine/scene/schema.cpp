@@ -171,6 +171,14 @@ Key build_spec() {
                            "break (finite critical_stretch or fracture_energy), else 0.").ge(0).le(0.4).only({"box", "sphere", "cylinder"}),
           integer("seed", "Seed of the jitter: the same seed gives the same mesh, bit for bit.")
               .ge(0).def(1).only({"box", "sphere", "cylinder"}),
+          strings("mirror", {"x", "y", "z"}, "Make the structured mesh and its jitter mirror-symmetric about the body's "
+                  "centre plane normal to each listed axis (before `transform`): on that axis the cubes of the lower "
+                  "half are split around the mirror image of the upper half's diagonal, and mirror-image vertices get "
+                  "mirror-image offsets (vertices on the plane stay on it). A load and notch mirror-symmetric about "
+                  "that plane then give mirror-symmetric cracks; the default grid splits every cube around the same "
+                  "diagonal and jitters each vertex independently, so it is not symmetric. Needs an even number of "
+                  "cells along the axis. A crack running in a mirror plane follows it (the plane is flat).")
+              .def(Json::array()).only({"box", "sphere", "cylinder"}),
       }).one_of({{"edge_length"}, {"resolution"}, {"particles"}}, false).req(),
       object("transform", "transform", "Placement of the mesh: x ↦ R·(scale·x) + translate.", {
           vec3("translate", "Translation, m.").def(kZero),
@@ -371,6 +379,11 @@ Key build_spec() {
                   "(peridynamics; FEM runs have no split mesh).")
               .at_least(1).def(Json::array({"vtu", "ply"})),
           strings("fields", {}, "Particle fields to write; empty = all. Names: see Particle fields below.").def(Json::array()),
+          integer("smooth_cracks", "Smoothing of the crack faces on the surface files (systems/README.md §6.6): this "
+                  "many iterations (two Laplacian steps each) move the crack surface's vertices in the reference configuration towards a "
+                  "smooth surface, so cracks through the tet mesh do not show its stair-steps. Both sides of a crack "
+                  "move together, every tet keeps at least 0.2 of its volume, the outer surface stays flat. Particles "
+                  "and physics are not affected. 0 = off (crack faces are tet faces).").ge(0).le(50).def(3),
           integer("checkpoint_every", "Write checkpoint.bin (the complete world state, for `perifx run --resume`) "
                   "every this many frames, and after the last frame; 0 = never.").ge(0).def(10),
           integer("min_piece_tets", "Pieces (components of alive bonds, `fragment_id`) with fewer tets than this "

@@ -22,10 +22,11 @@ TetMesh mesh_for(const scene::Body& body) {
     return longest / res;
   };
   switch (g.kind) {
-    case scene::Geometry::Kind::box: return geometry::mesh_box(g.size, cell_for(g.size.maxCoeff()));
-    case scene::Geometry::Kind::sphere: return geometry::mesh_sphere(g.radius, cell_for(2.0 * g.radius));
+    case scene::Geometry::Kind::box: return geometry::mesh_box(g.size, cell_for(g.size.maxCoeff()), g.mirror);
+    case scene::Geometry::Kind::sphere: return geometry::mesh_sphere(g.radius, cell_for(2.0 * g.radius), g.mirror);
     case scene::Geometry::Kind::cylinder:
-      return geometry::mesh_cylinder(g.radius, g.height, g.axis, cell_for(std::max(2.0 * g.radius, g.height)));
+      return geometry::mesh_cylinder(g.radius, g.height, g.axis, cell_for(std::max(2.0 * g.radius, g.height)),
+                                     g.mirror);
     case scene::Geometry::Kind::tetgen: return geometry::read_tetgen(g.path);
     case scene::Geometry::Kind::gmsh: return geometry::read_gmsh(g.path);
     case scene::Geometry::Kind::surface: {
@@ -58,7 +59,8 @@ TetMesh placed_mesh(const scene::Scene& scene, std::size_t bi) {
   if (body.geometry.jitter > 0.0 &&
       (kind == scene::Geometry::Kind::box || kind == scene::Geometry::Kind::sphere ||
        kind == scene::Geometry::Kind::cylinder))
-    geometry::jitter_vertices(mesh, body.geometry.jitter, static_cast<std::uint64_t>(body.geometry.seed));
+    geometry::jitter_vertices(mesh, body.geometry.jitter, static_cast<std::uint64_t>(body.geometry.seed),
+                              body.geometry.mirror);
   for (Vec3& v : mesh.vertices) v = body.transform.rotation * (body.transform.scale * v) + body.transform.translation;
   if (mesh.tets.empty()) body_error(scene, bi, "the mesh has no tetrahedra (got 0; expected at least one)");
   // Degenerate placement (scale 1e300, radius 1e-300 ...): every coordinate finite and within

@@ -84,6 +84,8 @@ struct Geometry {
   long long particles = 0;             // surface: target tet count (0 = unset)
   double jitter = 0.0;                 // box, sphere, cylinder: vertex offset / shortest edge (geometry/jitter.cpp)
   long long seed = 1;                  // jitter seed
+  std::array<bool, 3> mirror = {false, false, false};  // box, sphere, cylinder: mesh and jitter mirror-
+                                       // symmetric about the centre plane ⟂ x, y, z (geometry/structured.cpp, jitter.cpp)
 };
 
 struct Transform {
@@ -227,6 +229,7 @@ struct Output {
   bool gltf = false;
   bool surfaces_by_default = false;    // obj + surface_ply + cache were added because `formats` was not given
   std::vector<std::string> fields;     // particle fields to write; empty = all registered fields
+  int smooth_cracks = 3;               // smoothing iterations (2 Laplacian steps each) on the crack faces' reference positions (0: off)
   std::uint64_t checkpoint_every = 10; // frames between checkpoints (perifx run --resume); 0 = never
   std::uint32_t min_piece_tets = 0;    // surface files leave out pieces with fewer tets (0: keep all)
   bool dust_points = false;            // "dust": "points": the left-out pieces' particles as dust.NNNN.ply
