@@ -58,6 +58,20 @@ Vec3 fit_normal(const std::vector<Face>& faces, const std::vector<std::uint32_t>
   return es.eigenvectors().col(0);
 }
 
+// A triangle's three reference corners, sorted: the same key for a crack face and its twin on the
+// other side of the crack (same reference triangle, opposite orientation).
+std::array<double, 9> reference_key(const io::SurfaceFrame& s, std::size_t f) {
+  std::array<std::array<double, 3>, 3> p;
+  for (int c = 0; c < 3; ++c) {
+    const Vec3& r = s.reference[s.triangle[f][static_cast<std::size_t>(c)]];
+    p[static_cast<std::size_t>(c)] = {r.x(), r.y(), r.z()};
+  }
+  std::sort(p.begin(), p.end());
+  std::array<double, 9> key{};
+  for (int i = 0; i < 9; ++i) key[static_cast<std::size_t>(i)] = p[static_cast<std::size_t>(i / 3)][static_cast<std::size_t>(i % 3)];
+  return key;
+}
+
 }  // namespace
 
 CrackStats crack_statistics(const CrackSurface& in, const CrackStatsOptions& opt) {
@@ -197,15 +211,7 @@ CrackStats crack_statistics(const std::filesystem::path& dir, const CrackStatsOp
     std::map<std::array<double, 9>, std::vector<std::uint32_t>> by_geometry;
     for (std::size_t f = 0; f < s.triangle.size(); ++f) {
       if (!s.crack[f]) continue;
-      std::array<std::array<double, 3>, 3> p;
-      for (int c = 0; c < 3; ++c) {
-        const Vec3& r = s.reference[s.triangle[f][static_cast<std::size_t>(c)]];
-        p[static_cast<std::size_t>(c)] = {r.x(), r.y(), r.z()};
-      }
-      std::sort(p.begin(), p.end());
-      std::array<double, 9> key{};
-      for (int i = 0; i < 9; ++i) key[static_cast<std::size_t>(i)] = p[static_cast<std::size_t>(i / 3)][static_cast<std::size_t>(i % 3)];
-      by_geometry[key].push_back(s.tet.size() == s.triangle.size() ? s.tet[f] : static_cast<std::uint32_t>(f));
+      by_geometry[reference_key(s, f)].push_back(s.tet.size() == s.triangle.size() ? s.tet[f] : static_cast<std::uint32_t>(f));
     }
     std::map<std::pair<std::uint32_t, std::uint32_t>, int> out;
     for (auto& [key, tets] : by_geometry) out[{*std::min_element(tets.begin(), tets.end()), *std::max_element(tets.begin(), tets.end())}] = 1;
@@ -220,15 +226,7 @@ CrackStats crack_statistics(const std::filesystem::path& dir, const CrackStatsOp
   std::map<std::array<double, 9>, std::vector<std::uint32_t>> twins;
   for (std::uint32_t f = 0; f < s.triangle.size(); ++f) {
     if (!s.crack[f]) continue;
-    std::array<std::array<double, 3>, 3> p;
-    for (int c = 0; c < 3; ++c) {
-      const Vec3& r = s.reference[s.triangle[f][static_cast<std::size_t>(c)]];
-      p[static_cast<std::size_t>(c)] = {r.x(), r.y(), r.z()};
-    }
-    std::sort(p.begin(), p.end());
-    std::array<double, 9> key{};
-    for (int i = 0; i < 9; ++i) key[static_cast<std::size_t>(i)] = p[static_cast<std::size_t>(i / 3)][static_cast<std::size_t>(i % 3)];
-    twins[key].push_back(f);
+    twins[reference_key(s, f)].push_back(f);
   }
   for (const auto& [key, fs] : twins) {
     if (!initial.empty()) {
