@@ -3,7 +3,8 @@
 
 #include <malloc.h>
 #ifdef PERIFX_SANITIZED
-#include <sanitizer/allocator_interface.h>
+// libasan's allocator statistics (GCC ships no header for them; clang's sanitizer/allocator_interface.h).
+extern "C" std::size_t __sanitizer_get_current_allocated_bytes();
 #endif
 
 #include <cstring>
