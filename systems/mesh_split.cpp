@@ -30,6 +30,7 @@
 #include <algorithm>
 
 #include "systems.hpp"
+#include "union_find.hpp"
 
 namespace perifx::systems {
 namespace {
@@ -63,7 +64,7 @@ int slot_of(const std::array<std::uint32_t, 4>& tet, std::uint32_t v) {
 }
 
 struct Scratch {
-  std::vector<std::uint32_t> tets, slot, group_of, queue, group;
+  std::vector<std::uint32_t> tets, slot, group_of, parent, group;
 };
 
 // Groups v's tets by intact faces containing v and gives every group but the first its own copy.
@@ -72,7 +73,6 @@ std::size_t split_vertex(WorldState& w, std::uint32_t v, Scratch& sc) {
   auto& tets = sc.tets;
   auto& slot = sc.slot;
   auto& group_of = sc.group_of;
-  auto& queue = sc.queue;
   auto& group = sc.group;
   holding(e, v, tets, slot);
   const std::size_t n = tets.size();
@@ -81,26 +81,19 @@ std::size_t split_vertex(WorldState& w, std::uint32_t v, Scratch& sc) {
     const auto it = std::lower_bound(tets.begin(), tets.end(), t);
     return it != tets.end() && *it == t ? static_cast<std::size_t>(it - tets.begin()) : n;
   };
-  group_of.assign(n, kNone);
-  std::uint32_t groups = 0;
-  for (std::size_t seed = 0; seed < n; ++seed) {
-    if (group_of[seed] != kNone) continue;
-    group_of[seed] = groups;
-    queue.assign(1, static_cast<std::uint32_t>(seed));
-    while (!queue.empty()) {
-      const std::uint32_t a = queue.back();
-      queue.pop_back();
-      const std::uint32_t t = tets[a];
-      for (std::uint32_t k = 0; k < 4; ++k) {
-        if (k == slot[a]) continue;  // the face opposite v does not contain v
-        const std::int32_t pair = e.face_pair[t][k];
-        if (pair < 0 || e.pair_state[static_cast<std::size_t>(pair)] != FaceState::intact) continue;
-        const std::size_t b = local(static_cast<std::uint32_t>(e.neighbors[t][k]));
-        if (b < n && group_of[b] == kNone) group_of[b] = groups, queue.push_back(static_cast<std::uint32_t>(b));
-      }
+  // Groups: v's tets joined by the intact faces they share through v.
+  UnionFind sets(sc.parent, n);
+  for (std::size_t a = 0; a < n; ++a) {
+    const std::uint32_t t = tets[a];
+    for (std::uint32_t k = 0; k < 4; ++k) {
+      if (k == slot[a]) continue;  // the face opposite v does not contain v
+      const std::int32_t pair = e.face_pair[t][k];
+      if (pair < 0 || e.pair_state[static_cast<std::size_t>(pair)] != FaceState::intact) continue;
+      const std::size_t b = local(static_cast<std::uint32_t>(e.neighbors[t][k]));
+      if (b < n) sets.unite(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b));
     }
-    ++groups;
   }
+  const std::uint32_t groups = sets.label(group_of);
   if (groups < 2) return 0;
   std::size_t copies = 0;
   const std::uint32_t o = e.origin[v];
@@ -168,27 +161,20 @@ std::uint32_t pinched_edge(const EmbeddedMesh& e, std::uint32_t p, std::uint32_t
   if (triangles <= 2) return kNone;
   // Groups of the ring: tets joined by ring faces they still share (intact or pending).
   const std::size_t n = ring.size();
-  std::vector<std::uint32_t> group_of(n, kNone), queue;
-  std::uint32_t groups = 0;
-  for (std::size_t seed = 0; seed < n; ++seed) {
-    if (group_of[seed] != kNone) continue;
-    group_of[seed] = groups;
-    queue.assign(1, static_cast<std::uint32_t>(seed));
-    while (!queue.empty()) {
-      const std::uint32_t t = ring[queue.back()];
-      queue.pop_back();
-      int f[2];
-      ring_faces(t, f);
-      for (int k : f) {
-        if (open_face(t, k)) continue;
-        const auto it = std::lower_bound(ring.begin(), ring.end(), static_cast<std::uint32_t>(e.neighbors[t][static_cast<std::size_t>(k)]));
-        if (it == ring.end() || *it != static_cast<std::uint32_t>(e.neighbors[t][static_cast<std::size_t>(k)])) continue;
-        const std::size_t b = static_cast<std::size_t>(it - ring.begin());
-        if (group_of[b] == kNone) group_of[b] = groups, queue.push_back(static_cast<std::uint32_t>(b));
-      }
+  UnionFind sets(sc.parent, n);
+  for (std::size_t a = 0; a < n; ++a) {
+    const std::uint32_t t = ring[a];
+    int f[2];
+    ring_faces(t, f);
+    for (int k : f) {
+      if (open_face(t, k)) continue;
+      const auto u = static_cast<std::uint32_t>(e.neighbors[t][static_cast<std::size_t>(k)]);
+      const auto it = std::lower_bound(ring.begin(), ring.end(), u);
+      if (it != ring.end() && *it == u) sets.unite(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(it - ring.begin()));
     }
-    ++groups;
   }
+  std::vector<std::uint32_t> group_of;
+  const std::uint32_t groups = sets.label(group_of);
   if (groups < 2) return kNone;
   // Candidates (endpoint v, group g): faces of g's tets holding v but not the other endpoint.
   struct Best { std::size_t cost = ~std::size_t{0}, size = 0; std::uint32_t v = kNone, first = kNone, g = 0; } best;

@@ -1,6 +1,7 @@
 // Union-find (disjoint sets) over the indices 0..n−1, written once for every connected-components
-// question in perifx: fragments of the alive-bond graph (fragments.cpp) and the one-piece check of a
-// tet mesh (engine/geometry/mesh_checks.cpp). A plain algorithm, no components: engine/geometry may
+// question in perifx: fragments of the alive-bond graph (fragments.cpp), the one-piece check of a
+// tet mesh (engine/geometry/mesh_checks.cpp) and the tet groups around a vertex or an edge when the
+// embedded mesh splits (mesh_split.cpp). A plain algorithm, no components: engine/geometry may
 // include it.
 //
 // The sets live in a caller-owned array, parent (n entries; parent[a] == a for a root), so a caller
@@ -48,6 +49,16 @@ class UnionFind {
       parent_[a] = parent_[parent_[a]];
       count += parent_[a] == a;
     }
+    return count;
+  }
+
+  // Flattens, then numbers the sets 0, 1, … in the order of their smallest index and writes each
+  // index's set number to `label` (resized to n; it must not be `parent`). Returns the number of sets.
+  std::uint32_t label(std::vector<std::uint32_t>& label) {
+    flatten();
+    label.resize(parent_.size());
+    std::uint32_t count = 0;
+    for (std::uint32_t a = 0; a < parent_.size(); ++a) label[a] = parent_[a] == a ? count++ : label[parent_[a]];
     return count;
   }
 
