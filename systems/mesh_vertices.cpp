@@ -14,7 +14,8 @@
 //     (the tets that currently hold v; tet t is particle t), weights w_t = m_t / Σ_G m:
 //       x_v = Σ w_t (y_t + F_t (X_v − x_t)),   v_v = Σ w_t (v_t + Ḟ_t (X_v − x_t)).
 //     Then render components (tets joined through shared vertices) of at most 8 tets are placed
-//     rigidly instead (rigid_small_components below), so debris cannot turn inside out.
+//     rigidly instead, or by their best-fit affine map when their particles have moved apart
+//     (rigid_small_components below), so debris cannot turn inside out.
 //     Rigid and affine motion with full families give F exact to round-off, so x_v is exact; a vertex
 //     is a convex combination of its group's predictions, each within |F_t| |X_v − x_t| (≤ ~3.5 tet
 //     sizes) of its particle, so it never extrapolates away from its group.
@@ -38,6 +39,7 @@
 
 #include "parallel.hpp"
 #include "systems.hpp"
+#include "union_find.hpp"
 
 namespace perifx::systems {
 
@@ -93,8 +95,11 @@ void particle_deformation(WorldState& w, std::size_t p) {
 // particles are strongly and unevenly deformed (ductile debris held by longer bonds) would otherwise
 // mix inconsistent per-particle predictions at their shared vertices and could turn inside out; a
 // rigid copy cannot. Only components whose particles hold together (each within the component's
-// reference radius of its rigid prediction; for a single tet always) are placed rigidly. Velocities
-// keep the per-vertex value. Serial, in tet order: deterministic.
+// reference radius of its rigid prediction; for a single tet always) are placed rigidly; the others,
+// if at least 4 particles span them, by their best-fit affine map x_v = ȳ + A S⁻¹ (X_v − x̄),
+// S = Σ m_t (x_t − x̄)(x_t − x̄)ᵀ, when that map passes F_p's test (det > 0, ‖F‖², ‖F⁻¹‖² ≤ 12):
+// one affine map with det > 0 keeps every tet positive. Velocities keep the per-vertex value.
+// Serial, in tet order: deterministic.
 constexpr std::uint32_t kRigidComponentTets = 8;
 
 void rigid_small_components(WorldState& w) {
@@ -104,21 +109,15 @@ void rigid_small_components(WorldState& w) {
   const auto& mass = w.particles.mass;
   const std::size_t nt = e.tets.size();
   constexpr std::uint32_t kNone = 0xFFFFFFFFu;
-  std::vector<std::uint32_t> parent(nt), first(e.vertices.size(), kNone);
-  for (std::uint32_t t = 0; t < nt; ++t) parent[t] = t;
-  auto find = [&](std::uint32_t a) {
-    while (parent[a] != a) a = parent[a] = parent[parent[a]];
-    return a;
-  };
+  std::vector<std::uint32_t> parent, first(e.vertices.size(), kNone);
+  UnionFind sets(parent, nt);
   for (std::uint32_t t = 0; t < nt; ++t)
     for (std::uint32_t v : e.tets[t]) {
-      if (first[v] == kNone) {
-        first[v] = t;
-        continue;
-      }
-      const std::uint32_t a = find(first[v]), b = find(t);
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+      if (first[v] == kNone) first[v] = t;
+      else sets.unite(first[v], t);
     }
+  sets.flatten();  // parent[t]: the smallest tet of t's component
+  auto find = [&](std::uint32_t t) { return parent[t]; };
   std::vector<std::uint32_t> size(nt, 0);
   for (std::uint32_t t = 0; t < nt; ++t) ++size[find(t)];
   // Small components' tets, grouped by root (roots in increasing order).
@@ -141,14 +140,14 @@ void rigid_small_components(WorldState& w) {
     if (M > 0.0) {
       xbar /= M;
       ybar /= M;
-      Mat3 A = Mat3::Zero(), held = Mat3::Zero();
-      double spread = 0.0;
+      Mat3 A = Mat3::Zero(), S = Mat3::Zero(), held = Mat3::Zero();
       for (std::size_t k = a; k < b; ++k) {
         const std::uint32_t t = small[k].second;
         A += mass[t] * (y[t] - ybar) * (x[t] - xbar).transpose();
+        S += mass[t] * (x[t] - xbar) * (x[t] - xbar).transpose();
         held += mass[t] * polar_rotation(e.deformation[t]);
-        spread += mass[t] * (x[t] - xbar).squaredNorm();
       }
+      const double spread = S.trace();
       // One tet: its own rotation, its own centre (round-off in x̄ must not make A a random rank-1 term).
       const bool single = b - a == 1;
       if (single) xbar = x[small[a].second], ybar = y[small[a].second];
@@ -162,15 +161,25 @@ void rigid_small_components(WorldState& w) {
         radius = std::max(radius, (x[t] - xbar).norm());
         residual = std::max(residual, (y[t] - ybar - R * (x[t] - xbar)).norm());
       }
+      // Particles that have moved apart (the plastically stretched bonds of ductile debris): the
+      // component's best-fit affine map F = A S⁻¹ instead, when at least four particles span it and F
+      // is orientation-preserving and bounded as F_p is. One affine map with det F > 0 cannot turn a
+      // tet inside out, where mixing the particles' own predictions at shared vertices can.
+      Mat3 F = R;
       if (residual > radius) {
-        a = b;
-        continue;
+        const bool fits = b - a >= 4 && family_fits(S, static_cast<std::uint32_t>(b - a));
+        const Mat3 fitted = fits ? Mat3(A * S.inverse()) : Mat3::Zero();
+        if (!fits || !deformation_conditioned(fitted)) {
+          a = b;
+          continue;
+        }
+        F = fitted;
       }
       for (std::size_t k = a; k < b; ++k)
         for (std::uint32_t v : e.tets[small[k].second]) {
           if (seen[v] == small[a].first) continue;
           seen[v] = small[a].first;
-          e.vertices[v] = ybar + R * (e.reference_vertices[v] - xbar);
+          e.vertices[v] = ybar + F * (e.reference_vertices[v] - xbar);
         }
     }
     a = b;
