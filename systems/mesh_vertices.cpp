@@ -96,11 +96,20 @@ void particle_deformation(WorldState& w, std::size_t p) {
 // mix inconsistent per-particle predictions at their shared vertices and could turn inside out; a
 // rigid copy cannot. Only components whose particles hold together (each within the component's
 // reference radius of its rigid prediction; for a single tet always) are placed rigidly; the others,
-// if at least 4 particles span them, by their best-fit affine map x_v = ȳ + A S⁻¹ (X_v − x̄),
-// S = Σ m_t (x_t − x̄)(x_t − x̄)ᵀ, when that map passes F_p's test (det > 0, ‖F‖², ‖F⁻¹‖² ≤ 12):
-// one affine map with det > 0 keeps every tet positive. Velocities keep the per-vertex value.
-// Serial, in tet order: deterministic.
+// if at least 4 particles span them, by their best-fit affine map x_v = ȳ + F (X_v − x̄),
+// F = A S⁻¹, S = Σ m_t (x_t − x̄)(x_t − x̄)ᵀ, used as is when it passes F_p's test (det > 0,
+// ‖F‖², ‖F⁻¹‖² ≤ 12), with its principal stretches clamped to [½, 2] when only det > 0, rigidly
+// otherwise: every small component is placed by one map with det > 0, which keeps every tet positive.
+// Velocities keep the per-vertex value. Serial, in tet order: deterministic.
 constexpr std::uint32_t kRigidComponentTets = 8;
+
+// F with its principal stretches clamped to [½, 2] (det F > 0, so U and V have the same handedness
+// and the result keeps det > 0); passes deformation_conditioned.
+Mat3 clamp_stretch(const Mat3& F) {
+  const Eigen::JacobiSVD<Mat3> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Vec3 sigma = svd.singularValues().cwiseMax(0.5).cwiseMin(2.0);
+  return svd.matrixU() * sigma.asDiagonal() * svd.matrixV().transpose();
+}
 
 void rigid_small_components(WorldState& w) {
   EmbeddedMesh& e = w.embedded;
@@ -162,18 +171,15 @@ void rigid_small_components(WorldState& w) {
         residual = std::max(residual, (y[t] - ybar - R * (x[t] - xbar)).norm());
       }
       // Particles that have moved apart (the plastically stretched bonds of ductile debris): the
-      // component's best-fit affine map F = A S⁻¹ instead, when at least four particles span it and F
-      // is orientation-preserving and bounded as F_p is. One affine map with det F > 0 cannot turn a
-      // tet inside out, where mixing the particles' own predictions at shared vertices can.
+      // component's best-fit affine map F = A S⁻¹ instead, when at least four particles span it,
+      // bounded as F_p is (else its principal stretches clamped to [½, 2]); if it is not
+      // orientation-preserving, the rigid placement. One map with det F > 0 cannot turn a tet inside
+      // out, where mixing the particles' own predictions at shared vertices can.
       Mat3 F = R;
-      if (residual > radius) {
-        const bool fits = b - a >= 4 && family_fits(S, static_cast<std::uint32_t>(b - a));
-        const Mat3 fitted = fits ? Mat3(A * S.inverse()) : Mat3::Zero();
-        if (!fits || !deformation_conditioned(fitted)) {
-          a = b;
-          continue;
-        }
-        F = fitted;
+      if (residual > radius && b - a >= 4 && family_fits(S, static_cast<std::uint32_t>(b - a))) {
+        const Mat3 fitted = A * S.inverse();
+        if (deformation_conditioned(fitted)) F = fitted;
+        else if (fitted.determinant() > 0.0) F = clamp_stretch(fitted);
       }
       for (std::size_t k = a; k < b; ++k)
         for (std::uint32_t v : e.tets[small[k].second]) {

@@ -8,8 +8,10 @@
 # (crack faces orange) with the built-in rasterizer at 1280×720 and copied to
 # assets/report/images/FIGURE.png. Only Fig. 6, a damage plot in the paper too, draws the particles
 # coloured by damage. Wall times go to OUT_DIR/times.txt. FIGURE may also be "showcase" (the fracture
-# showcase scene: run and checked, not rendered).
+# showcase scene: run and checked, not rendered). PERIFX=path picks the binary (default ./build/perifx);
+# every run has --profile, so OUT_DIR/FIGURE/summary.json holds the wall time per system.
 set -euo pipefail
+perifx=${PERIFX:-./build/perifx}
 out=${1:?usage: gallery_runs.sh OUT_DIR [FIGURE...]}
 shift
 mkdir -p "$out"
@@ -48,15 +50,15 @@ one() {
   local frames=(--frames "$frame")
   [ "$run" = all ] && frames=()
   start=$(date +%s)
-  ./build/perifx run "$scene" --out "$out/$name" "${frames[@]}" --threads 1 --overwrite --quiet
+  "$perifx" run "$scene" --out "$out/$name" "${frames[@]}" --threads 1 --overwrite --quiet --profile
   local ran=$(( $(date +%s) - start ))
   if [ "$run" = all ]; then
     mkdir -p "$out/check"
-    ./build/perifx check-surface "$out/$name" > "$out/check/$name.txt" 2>&1 || echo "check-surface exit $?" >> "$out/check/$name.txt"
+    "$perifx" check-surface "$out/$name" > "$out/check/$name.txt" 2>&1 || echo "check-surface exit $?" >> "$out/check/$name.txt"
   fi
   [ "$name" = showcase ] && { echo "$name: run $ran s" >> "$out/times.txt"; return; }
   # shellcheck disable=SC2086  # options are words
-  ./build/perifx render "$out/$name" --scene "$scene" --backend builtin --threads 1 --width 1280 --height 720 \
+  "$perifx" render "$out/$name" --scene "$scene" --backend builtin --threads 1 --width 1280 --height 720 \
     --frames "$frame:$frame" --quiet $options
   cp "$out/$name/render/frame.$(printf %04d "$frame").png" "assets/report/images/$name.png"
   echo "$name: frame $frame, run $ran s" >> "$out/times.txt"
