@@ -11,12 +11,12 @@
 namespace perifx {
 
 // Candidate pairs (Verlet list with a skin, as in molecular dynamics): for each particle i, the
-// particles j that were within largest d_c + skin of it and not joined by an alive bond when the list
-// was built. Every pair that can touch before the list is rebuilt is in it: the list is rebuilt when
-// some particle has moved more than skin/2 since the build; when bonds break without such motion,
-// only the pairs of the broken bonds are added (they are the only pairs that stopped being bonded).
-// CSR, in grid-visit order then order of breaking (deterministic). An intact body has an empty list
-// and costs one O(n) check per step.
+// particles j that were within reach = largest d_c + skin of it and not joined by an alive bond when
+// the pair was last decided. Every pair that can touch is in it: a particle that has moved more than
+// skin/4 (relative to the centroid) since its own last search is searched again and its pairs are
+// re-decided on both sides; when bonds break, the pairs of the broken bonds within reach are added
+// (systems/contact.cpp gives the argument). CSR, symmetric, in a deterministic order. An intact body
+// has an empty list and costs one O(n) check per step.
 struct ContactPairs {
   double skin = 0.0;                       // m
   std::vector<std::uint32_t> offsets;      // particles + 1
@@ -26,7 +26,15 @@ struct ContactPairs {
                                            // keeps up to that many candidates per particle here, so
                                            // only particles with more need a second search
   static constexpr std::uint32_t kScratchPerParticle = 32;
-  std::vector<Vec3> built_position;        // positions at the last build, m
+  std::vector<Vec3> built_position;        // per particle: position minus the centroid of all
+                                           // particles, at the particle's last search, m
+  // The moved-particle update's buffers (sized at setup; only the CSR arrays grow, when they outgrow
+  // every earlier update): moved[i] = 1 when i moved more than skin/4 since its last search (this
+  // step's test), moved_list the moved particles ascending, moved_offsets/moved_neighbor their new
+  // candidates (CSR over moved_list), found_by[j] how many moved particles found unmoved j, then its
+  // write cursor.
+  std::vector<std::uint8_t> moved;
+  std::vector<std::uint32_t> moved_list, moved_offsets, moved_neighbor, found_by;
   // Build scratch, one row of `particles` entries per worker thread slot: while thread t builds the
   // list of particle i it marks i's alive bond partners j with bonded_stamp[t·n + j] = stamp, so
   // "bonded?" is one load instead of a binary search. Stamps are unique per (build pass, particle).
@@ -36,10 +44,14 @@ struct ContactPairs {
   std::uint64_t broken_at_build = 0;       // Σ broken bonds at the last build or addition
   std::vector<std::uint8_t> alive_at_build;  // bonds.alive as of then (per directed bond): the bonds
                                              // that broke since are the list's only new candidates
+  std::vector<std::uint32_t> broken_seen;    // per particle: its broken-bond count as of then, so
+                                             // only particles with new breaks scan their bonds
   std::vector<std::uint32_t> offsets_next, neighbor_next;  // double buffers for adding pairs
   std::uint64_t additions = 0;             // incremental updates after breaks (diagnostics)
   bool valid = false;                      // false until the first build
-  std::uint64_t builds = 0;                // rebuilds so far (diagnostics)
+  std::uint64_t builds = 0;                // full rebuilds so far (diagnostics)
+  std::uint64_t partial_updates = 0;       // updates that searched only the moved particles
+  std::uint64_t searched = 0;              // particles searched by those updates
 };
 
 struct ContactState {

@@ -211,6 +211,12 @@ void for_each_array(W& w, F&& f) {
   f(K::contact, "contact.pairs.built_position", c.pairs.built_position);
   f(K::contact, "contact.pairs.bonded_stamp", c.pairs.bonded_stamp);
   f(K::contact, "contact.pairs.alive_at_build", c.pairs.alive_at_build);
+  f(K::contact, "contact.pairs.moved", c.pairs.moved);
+  f(K::contact, "contact.pairs.moved_list", c.pairs.moved_list);
+  f(K::contact, "contact.pairs.moved_offsets", c.pairs.moved_offsets);
+  f(K::contact, "contact.pairs.moved_neighbor", c.pairs.moved_neighbor);
+  f(K::contact, "contact.pairs.found_by", c.pairs.found_by);
+  f(K::contact, "contact.pairs.broken_seen", c.pairs.broken_seen);
   f(K::other, "projectiles.bodies", w.projectiles.bodies);
   f(K::other, "projectiles.particle_force", w.projectiles.particle_force);
   f(K::other, "projectiles.torque", w.projectiles.torque);

@@ -413,6 +413,8 @@ RunSummary run_world(World& world, const RunOptions& options) {
   summary.threads = world.threads();
   summary.contact_list_builds = world.contact_counters().list_builds;
   summary.contact_list_additions = world.contact_counters().list_additions;
+  summary.contact_list_partial_updates = world.contact_counters().list_partial_updates;
+  summary.contact_list_searched = world.contact_counters().list_searched;
   if (options.profile) summary.system_times = world.system_times();
 
   // nlohmann-json does the quoting, so any scene name gives valid JSON; ordered keeps the field order.
@@ -433,6 +435,8 @@ RunSummary run_world(World& world, const RunOptions& options) {
   js["bond_updates_per_second"] = summary.bond_updates_per_second;
   js["contact_list_builds"] = summary.contact_list_builds;
   js["contact_list_additions"] = summary.contact_list_additions;
+  js["contact_list_partial_updates"] = summary.contact_list_partial_updates;
+  js["contact_list_searched"] = summary.contact_list_searched;
   js["first_frame"] = summary.first_frame;  // > 0: resumed after that frame's checkpoint
   js["last_frame"] = summary.last_frame;
   js["interrupted"] = summary.interrupted;

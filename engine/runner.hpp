@@ -52,6 +52,8 @@ struct RunSummary {
   int threads = 0;
   std::uint64_t contact_list_builds = 0;     // particle-contact pair list: full rebuilds (motion)
   std::uint64_t contact_list_additions = 0;  // and incremental additions of broken bonds' pairs
+  std::uint64_t contact_list_partial_updates = 0;  // updates that searched only the moved particles
+  std::uint64_t contact_list_searched = 0;         // particles searched by those updates
   std::filesystem::path output_directory;
   std::uint64_t first_frame = 0;      // 0, or the checkpoint's frame a resumed run continued after
   std::uint64_t last_frame = 0;       // the last frame written

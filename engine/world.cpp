@@ -219,7 +219,7 @@ std::vector<ProjectileView> World::projectiles() const {
 
 ContactCounters World::contact_counters() const {
   const auto& pairs = impl_->state->contact.pairs;
-  return {pairs.builds, pairs.additions};
+  return {pairs.builds, pairs.additions, pairs.partial_updates, pairs.searched};
 }
 
 bool World::has_embedded_mesh() const { return !impl_->state->embedded.tets.empty(); }

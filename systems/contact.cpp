@@ -17,12 +17,20 @@
 // is softer for larger dt (penetration under an impact at speed v is ≈ v·dt/√stiffness_factor).
 //
 // Neighbour search: a Verlet list with a skin (components/contact.hpp, ContactPairs). The list holds,
-// per particle, the unbonded particles within the largest d_c + skin. It is rebuilt only when some
-// particle has moved more than skin/2 since the last build, relative to the mean motion (a common
-// translation changes no distance), so every pair that can come closer than d_c is in it; a bond
-// that breaks adds its pair (add_broken_pairs) without a rebuild. The build uses a hashed uniform grid
-// (spatial_grid.hpp; cell = largest d_c + skin, counting sort, stable: particles in a bucket stay in
-// index order) and visits 9 rows of 3 cells in a fixed order. Each particle then gathers the forces on
+// per particle, the unbonded particles within reach = largest d_c + skin. Positions are measured from
+// the centroid c of all particles (a common translation changes no distance), z_i = y_i − c. Each
+// particle remembers z_i at its own last search, and only a particle that has moved more than skin/4
+// from there is searched again ("moved"), with its pairs re-decided on both sides; the whole list is
+// rebuilt only at the start or when more than 1/8 of the particles moved (update_moved_pairs,
+// rebuild_pairs). Why that keeps every pair that can come closer than d_c: a pair missing from the
+// list was last decided by the search of one end, i, at a time t*, when |z_i − z_j| ≥ reach. Since then
+// i has moved at most skin/4 and j at most skin/2 (skin/4 each side of its own search position), so
+// the pair has closed by at most ¾ skin and is still farther apart than d_c. A bond that breaks adds its
+// pair when the ends are within reach (add_broken_pairs; same argument, both ends at most skin/2 from
+// where they are then). So one fast fragment costs a search for itself, not a rebuild of the whole
+// list (the sheet preview rebuilt it 987 times in 4000 steps when any skin/2 motion rebuilt all).
+// The search uses a hashed uniform grid (spatial_grid.hpp; cell = reach, counting sort, stable:
+// particles in a bucket stay in index order) and visits 9 rows of 3 cells in a fixed order. Each particle then gathers the forces on
 // itself from its list (no scatter, no atomics), so the result does not depend on the thread count.
 // Every scalar of the pair term is symmetric in (i, j) and every vector flips sign exactly with r and
 // v_j − v_i, so the force j computes on itself is bit-for-bit the negative of the one i computes:
@@ -47,6 +55,7 @@ namespace perifx::systems {
 namespace {
 
 constexpr double kSkinFraction = 0.3;     // skin = this × the largest contact distance
+constexpr std::size_t kFullRebuildShare = 8;  // rebuild the whole list when more than n/8 moved
 // Calls visit(j) for every unbonded particle j ≠ i within the grid cell size of i, in a fixed order
 // (9 rows of 3 cells). `stamp` is this (pass, particle)'s unique mark and `marks` the calling
 // thread's row of ContactPairs::bonded_stamp.
@@ -74,11 +83,13 @@ std::uint64_t* stamp_row(ContactPairs& pr, std::size_t n) {
 }
 
 // What the pair list needs before this step's forces: nothing, the pairs of bonds broken since the
-// last update, or a full rebuild (first step, or some particle moved more than skin/2 since the build,
-// relative to the mean motion).
-enum class PairUpdate { none, add_broken, rebuild };
-PairUpdate pair_update_needed(const WorldState& w, std::uint64_t& broken_now) {
-  const auto& pr = w.contact.pairs;
+// last update, a search for the particles that moved more than skin/4 since their own last search
+// (marked in pr.moved), or a full rebuild (first step, or more than n/kFullRebuildShare moved).
+// `centroid` is the mean position, a fixed-block sum: the same bits for every thread count, and so is
+// every decision here (integer counts and per-particle tests).
+enum class PairUpdate { none, add_broken, moved, rebuild };
+PairUpdate pair_update_needed(WorldState& w, std::uint64_t& broken_now, Vec3& centroid) {
+  auto& pr = w.contact.pairs;
   const std::size_t n = w.particles.count();
   broken_now = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n, 4096), std::uint64_t{0},
@@ -87,50 +98,69 @@ PairUpdate pair_update_needed(const WorldState& w, std::uint64_t& broken_now) {
         return acc;
       },
       [](std::uint64_t a, std::uint64_t b) { return a + b; });
-  if (!pr.valid) return PairUpdate::rebuild;
-  // A pair's separation changes by (Δy_j − T) − (Δy_i − T) for any vector T, so the list stays
-  // complete while every |Δy_i − T| ≤ skin/2. T = the mean displacement since the build, so a body
-  // that translates as a whole (falling, thrown) does not force rebuilds. The mean is a fixed-block
-  // sum and the max is exact in any order: the decision is the same for every thread count.
   const auto& y = w.particles.position;
   // parallel_deterministic_reduce splits and joins the same way for any thread count (and, unlike
   // deterministic_sum, allocates nothing).
-  const Vec3 shift = tbb::parallel_deterministic_reduce(
-                         tbb::blocked_range<std::size_t>(0, n, 4096), Vec3(Vec3::Zero()),
-                         [&](const tbb::blocked_range<std::size_t>& r, Vec3 acc) {
-                           for (std::size_t i = r.begin(); i != r.end(); ++i) acc += y[i] - pr.built_position[i];
-                           return acc;
-                         },
-                         [](const Vec3& a, const Vec3& b) { return Vec3(a + b); }) /
-                     double(std::max<std::size_t>(n, 1));
-  const double moved2 = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
-      [&](const tbb::blocked_range<std::size_t>& r, double acc) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i)
-          acc = std::max(acc, (y[i] - pr.built_position[i] - shift).squaredNorm());
+  centroid = tbb::parallel_deterministic_reduce(
+                 tbb::blocked_range<std::size_t>(0, n, 4096), Vec3(Vec3::Zero()),
+                 [&](const tbb::blocked_range<std::size_t>& r, Vec3 acc) {
+                   for (std::size_t i = r.begin(); i != r.end(); ++i) acc += y[i];
+                   return acc;
+                 },
+                 [](const Vec3& a, const Vec3& b) { return Vec3(a + b); }) /
+             double(std::max<std::size_t>(n, 1));
+  if (!pr.valid) return PairUpdate::rebuild;
+  const double quarter_skin = 0.25 * pr.skin, limit2 = quarter_skin * quarter_skin;
+  const Vec3 c = centroid;
+  const std::size_t moved = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, 4096), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t acc) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const bool m = !((y[i] - c - pr.built_position[i]).squaredNorm() <= limit2);  // NaN: moved
+          pr.moved[i] = m;
+          acc += m;
+        }
         return acc;
       },
-      [](double a, double b) { return std::max(a, b); });
-  const double half_skin = 0.5 * pr.skin;
-  if (!(moved2 <= half_skin * half_skin)) return PairUpdate::rebuild;  // NaN positions rebuild too
+      [](std::size_t a, std::size_t b) { return a + b; });
+  if (moved > n / kFullRebuildShare) return PairUpdate::rebuild;
+  if (moved > 0) return PairUpdate::moved;
   return broken_now != pr.broken_at_build ? PairUpdate::add_broken : PairUpdate::none;
 }
 
-// Adds to the list the pairs of bonds that broke since the last update and were within reach at the
-// build positions: exactly what a rebuild at the build positions would add, so the list stays
-// complete. Both ends of a bond see the same test (bit-symmetric distance), so pairs stay symmetric.
+// True when particle i has bonds that broke since the list last took in i's breaks (its broken-bond
+// count changed): only those particles' bonds need scanning.
+bool has_new_breaks(const WorldState& w, std::size_t i) {
+  return w.state.broken_bonds[i] != w.contact.pairs.broken_seen[i];
+}
+
+// Records that the list has taken in i's breaks.
+void take_in_breaks(WorldState& w, std::size_t i) {
+  auto& pr = w.contact.pairs;
+  const auto& b = w.bonds;
+  for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) pr.alive_at_build[k] = b.alive[k];
+  pr.broken_seen[i] = w.state.broken_bonds[i];
+}
+
+// A bond k of particle i that broke since the last update, whose ends are now within reach.
+bool newly_broken_in_reach(const WorldState& w, std::size_t i, std::uint32_t k) {
+  const auto& b = w.bonds;
+  const auto& y = w.particles.position;
+  const double reach2 = w.contact.grid.cell * w.contact.grid.cell;
+  return w.contact.pairs.alive_at_build[k] && !b.alive[k] && (y[b.neighbor[k]] - y[i]).squaredNorm() < reach2;
+}
+
+// Adds to the list the pairs of bonds that broke since the last update and are within reach now
+// (see the header for why that is enough). Both ends of a bond see the same test (bit-symmetric
+// distance), so pairs stay symmetric.
 void add_broken_pairs(WorldState& w, std::uint64_t broken_now) {
   auto& pr = w.contact.pairs;
   const auto& b = w.bonds;
   const std::size_t n = w.particles.count();
-  const double reach2 = w.contact.grid.cell * w.contact.grid.cell;
-  auto newly_broken_in_reach = [&](std::size_t i, std::uint32_t k) {
-    return pr.alive_at_build[k] && !b.alive[k] &&
-           (pr.built_position[b.neighbor[k]] - pr.built_position[i]).squaredNorm() < reach2;
-  };
   parallel_for_each(n, [&](std::size_t i) {
     std::uint32_t count = pr.offsets[i + 1] - pr.offsets[i];
-    for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) count += newly_broken_in_reach(i, k);
+    if (has_new_breaks(w, i))
+      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) count += newly_broken_in_reach(w, i, k);
     pr.count[i] = count;
   }, 1024);
   pr.offsets_next[0] = 0;
@@ -139,10 +169,10 @@ void add_broken_pairs(WorldState& w, std::uint64_t broken_now) {
   parallel_for_each(n, [&](std::size_t i) {
     std::uint32_t q = pr.offsets_next[i];
     for (std::uint32_t p = pr.offsets[i]; p < pr.offsets[i + 1]; ++p) pr.neighbor_next[q++] = pr.neighbor[p];
-    for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
-      if (newly_broken_in_reach(i, k)) pr.neighbor_next[q++] = b.neighbor[k];
-      pr.alive_at_build[k] = b.alive[k];  // particle i's own bond slots: no race
-    }
+    if (!has_new_breaks(w, i)) return;
+    for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k)
+      if (newly_broken_in_reach(w, i, k)) pr.neighbor_next[q++] = b.neighbor[k];
+    take_in_breaks(w, i);  // particle i's own bond slots: no race
   }, 1024);
   std::swap(pr.offsets, pr.offsets_next);
   std::swap(pr.neighbor, pr.neighbor_next);
@@ -150,7 +180,103 @@ void add_broken_pairs(WorldState& w, std::uint64_t broken_now) {
   ++pr.additions;
 }
 
-void rebuild_pairs(WorldState& w, std::uint64_t broken_now) {
+// Searches the moved particles (pr.moved) again and re-decides every pair with a moved end; keeps
+// the other pairs. New list of
+//   a moved particle i:  its search (unbonded particles within reach now), in grid-visit order;
+//   any other particle j: its old pairs with unmoved partners, in their order; then the bonds broken
+//                         since the last update whose unmoved partner is within reach, in bond order;
+//                         then the moved particles whose search found j, in index order.
+// A pair of two moved particles is found by both searches (the same distance and bond test), a pair of
+// a moved and an unmoved particle is written on both sides from the moved one's search: the list stays
+// symmetric. Deterministic: the searches run in parallel into per-particle rows, the one scatter of
+// found pairs onto unmoved partners is serial in index order.
+void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& centroid) {
+  auto& c = w.contact;
+  auto& pr = c.pairs;
+  const auto& p = w.particles;
+  const auto& b = w.bonds;
+  const std::size_t n = p.count();
+  build_grid(c.grid, p.position);
+  pr.moved_list.clear();  // reserved to n at setup: no allocation
+  for (std::size_t i = 0; i < n; ++i)
+    if (pr.moved[i]) pr.moved_list.push_back(static_cast<std::uint32_t>(i));
+  const std::size_t m = pr.moved_list.size();
+  // 1. Search from every moved particle: count, keeping the first kScratchPerParticle in its scratch row.
+  constexpr std::uint32_t cap = ContactPairs::kScratchPerParticle;
+  const std::uint64_t search_base = pr.stamp_base, fill_base = search_base + n + 1;
+  pr.stamp_base = fill_base + n + 1;
+  parallel_for_each(m, [&](std::size_t a) {
+    const std::uint32_t i = pr.moved_list[a];
+    std::uint32_t count = 0;
+    std::uint32_t* row = pr.scratch.data() + std::size_t(i) * cap;
+    for_each_candidate(w, i, search_base + i + 1, stamp_row(pr, n), [&](std::uint32_t j) {
+      if (count < cap) row[count] = j;
+      ++count;
+    });
+    pr.count[i] = count;
+  }, 64);
+  pr.moved_offsets[0] = 0;
+  for (std::size_t a = 0; a < m; ++a) pr.moved_offsets[a + 1] = pr.moved_offsets[a] + pr.count[pr.moved_list[a]];
+  pr.moved_neighbor.resize(pr.moved_offsets[m]);
+  parallel_for_each(m, [&](std::size_t a) {
+    const std::uint32_t i = pr.moved_list[a];
+    std::uint32_t q = pr.moved_offsets[a];
+    if (pr.count[i] <= cap) {
+      std::copy_n(pr.scratch.data() + std::size_t(i) * cap, pr.count[i], pr.moved_neighbor.data() + q);
+      return;
+    }
+    for_each_candidate(w, i, fill_base + i + 1, stamp_row(pr, n), [&](std::uint32_t j) { pr.moved_neighbor[q++] = j; });
+  }, 64);
+  // 2. How many moved particles found each unmoved one (serial: a particle can be found by several).
+  std::fill(pr.found_by.begin(), pr.found_by.end(), 0u);
+  for (std::size_t q = 0; q < pr.moved_neighbor.size(); ++q)
+    if (const std::uint32_t j = pr.moved_neighbor[q]; !pr.moved[j]) ++pr.found_by[j];
+  // 3. New counts and offsets.
+  auto kept = [&](std::size_t j) {
+    std::uint32_t count = 0;
+    for (std::uint32_t q = pr.offsets[j]; q < pr.offsets[j + 1]; ++q) count += !pr.moved[pr.neighbor[q]];
+    if (has_new_breaks(w, j))
+      for (std::uint32_t k = b.offsets[j]; k < b.offsets[j + 1]; ++k)
+        count += !pr.moved[b.neighbor[k]] && newly_broken_in_reach(w, j, k);
+    return count;
+  };
+  parallel_for_each(n, [&](std::size_t j) {
+    if (!pr.moved[j]) pr.count[j] = kept(j) + pr.found_by[j];
+  }, 1024);
+  pr.offsets_next[0] = 0;
+  for (std::size_t i = 0; i < n; ++i) pr.offsets_next[i + 1] = pr.offsets_next[i] + pr.count[i];
+  pr.neighbor_next.resize(pr.offsets_next[n]);
+  // 4. Fill: unmoved particles' kept pairs (their scatter cursor goes to found_by), moved particles' searches.
+  parallel_for_each(n, [&](std::size_t j) {
+    if (pr.moved[j]) return;
+    std::uint32_t q = pr.offsets_next[j];
+    for (std::uint32_t r = pr.offsets[j]; r < pr.offsets[j + 1]; ++r)
+      if (!pr.moved[pr.neighbor[r]]) pr.neighbor_next[q++] = pr.neighbor[r];
+    if (has_new_breaks(w, j))
+      for (std::uint32_t k = b.offsets[j]; k < b.offsets[j + 1]; ++k)
+        if (!pr.moved[b.neighbor[k]] && newly_broken_in_reach(w, j, k)) pr.neighbor_next[q++] = b.neighbor[k];
+    pr.found_by[j] = q;
+  }, 1024);
+  parallel_for_each(m, [&](std::size_t a) {
+    const std::uint32_t i = pr.moved_list[a];
+    std::copy(pr.moved_neighbor.begin() + pr.moved_offsets[a], pr.moved_neighbor.begin() + pr.moved_offsets[a + 1],
+              pr.neighbor_next.begin() + pr.offsets_next[i]);
+    pr.built_position[i] = p.position[i] - centroid;
+  }, 64);
+  for (std::size_t a = 0; a < m; ++a)
+    for (std::uint32_t q = pr.moved_offsets[a]; q < pr.moved_offsets[a + 1]; ++q)
+      if (const std::uint32_t j = pr.moved_neighbor[q]; !pr.moved[j]) pr.neighbor_next[pr.found_by[j]++] = pr.moved_list[a];
+  parallel_for_each(n, [&](std::size_t i) {
+    if (has_new_breaks(w, i)) take_in_breaks(w, i);
+  }, 1024);
+  std::swap(pr.offsets, pr.offsets_next);
+  std::swap(pr.neighbor, pr.neighbor_next);
+  pr.broken_at_build = broken_now;
+  ++pr.partial_updates;
+  pr.searched += m;
+}
+
+void rebuild_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& centroid) {
   auto& c = w.contact;
   auto& g = c.grid;
   auto& pr = c.pairs;
@@ -185,8 +311,9 @@ void rebuild_pairs(WorldState& w, std::uint64_t broken_now) {
     for_each_candidate(w, static_cast<std::uint32_t>(i), fill_base + i + 1, stamp_row(pr, n),
                        [&](std::uint32_t j) { pr.neighbor[q++] = j; });
   }, 1024);
-  std::copy(p.position.begin(), p.position.end(), pr.built_position.begin());
+  parallel_for_each(n, [&](std::size_t i) { pr.built_position[i] = p.position[i] - centroid; }, 4096);
   std::copy(w.bonds.alive.begin(), w.bonds.alive.end(), pr.alive_at_build.begin());
+  std::copy(w.state.broken_bonds.begin(), w.state.broken_bonds.end(), pr.broken_seen.begin());
   pr.broken_at_build = broken_now;
   pr.valid = true;
   ++pr.builds;
@@ -222,6 +349,11 @@ void setup_contact(WorldState& w) {
   pr.neighbor_next.reserve(2 * n);
   pr.offsets_next.assign(n + 1, 0);
   pr.alive_at_build.assign(w.bonds.alive.size(), 1);
+  pr.moved.assign(n, 0);
+  pr.moved_list.reserve(n);
+  pr.moved_offsets.assign(n + 1, 0);
+  pr.found_by.assign(n, 0);
+  pr.broken_seen.assign(n, 0);
   // One row per worker slot of the arena the step runs in (scene threads, or the machine's).
   pr.stamp_slots = static_cast<std::size_t>(
       std::max(w.settings.threads > 0 ? w.settings.threads : 0, tbb::info::default_concurrency()));
@@ -237,8 +369,10 @@ SystemDecl contact_system(WorldState& w) {
           {Component::contact_force, Component::contact_list},
           [&w] {
             std::uint64_t broken_now = 0;
-            switch (pair_update_needed(w, broken_now)) {
-              case PairUpdate::rebuild: rebuild_pairs(w, broken_now); break;
+            Vec3 centroid;
+            switch (pair_update_needed(w, broken_now, centroid)) {
+              case PairUpdate::rebuild: rebuild_pairs(w, broken_now, centroid); break;
+              case PairUpdate::moved: update_moved_pairs(w, broken_now, centroid); break;
               case PairUpdate::add_broken: add_broken_pairs(w, broken_now); break;
               case PairUpdate::none: break;
             }

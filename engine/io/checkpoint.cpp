@@ -17,7 +17,8 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'P', 'E', 'R', 'I', 'F', 'X', 'C', 'K'};
-constexpr std::uint32_t kVersion = 2;  // 2: embedded.held_deformation, embedded.held_tracked
+constexpr std::uint32_t kVersion = 3;  // 2: embedded.held_deformation, embedded.held_tracked;
+                                       // 3: contact moved-particle updates (per-particle search positions)
 
 // Worker-slot scratch: sized by the thread count, so a resume on another thread count keeps its own.
 bool thread_dependent(std::string_view name) { return name == "contact.pairs.bonded_stamp"; }
@@ -38,6 +39,8 @@ void for_each_scalar(W& w, F&& f) {
   f(c.pairs.additions);
   f(c.pairs.valid);
   f(c.pairs.builds);
+  f(c.pairs.partial_updates);
+  f(c.pairs.searched);
   auto& e = w.embedded;
   f(e.crack_faces_total);
   f(e.vertex_copies_total);

@@ -263,7 +263,7 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
   REQUIRE(w.contact.enabled);
   const SystemDecl contact = systems::contact_system(w);
   const std::size_t n = w.particles.count();
-  std::size_t checks = 0, missing = 0, close_pairs = 0;
+  std::size_t checks = 0, missing = 0, close_pairs = 0, one_sided = 0;
   const int steps = 400;
   for (int s = 0; s < steps; ++s) {
     world.step();
@@ -282,14 +282,23 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
         ++close_pairs;
         missing += !std::binary_search(listed.begin(), listed.end(), j);
       }
+      // Symmetric: j lists i whenever i lists j (each particle gathers its own force from its list).
+      for (std::uint32_t j : listed) {
+        const auto first = pr.neighbor.begin() + pr.offsets[j], last = pr.neighbor.begin() + pr.offsets[j + 1];
+        one_sided += std::find(first, last, i) == last;
+      }
     }
     ++checks;
   }
   MESSAGE(checks << " checks, " << close_pairs << " unbonded close pairs, " << missing << " missing; "
-                 << w.contact.pairs.builds << " list builds and " << w.contact.pairs.additions
-                 << " additions of broken pairs in " << steps << " steps; broken bonds "
-                 << world.bond_count() - world.alive_bond_count());
+                 << w.contact.pairs.builds << " full list builds, " << w.contact.pairs.partial_updates
+                 << " moved-particle updates (" << w.contact.pairs.searched << " searches) and "
+                 << w.contact.pairs.additions << " additions of broken pairs in " << steps
+                 << " steps; broken bonds " << world.bond_count() - world.alive_bond_count()
+                 << "; one-sided entries " << one_sided);
   CHECK(world.bond_count() > world.alive_bond_count());  // bonds broke, so the list had to follow
   CHECK(close_pairs > 0);
   CHECK(missing == 0);
+  CHECK(one_sided == 0);
+  CHECK(w.contact.pairs.partial_updates > 0);  // the moved-particle update was exercised
 }

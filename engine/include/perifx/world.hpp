@@ -74,6 +74,8 @@ struct TetMeshView {
 struct ContactCounters {
   std::uint64_t list_builds = 0;     // particle-contact pair list: full rebuilds (motion)
   std::uint64_t list_additions = 0;  // incremental additions of broken bonds' pairs
+  std::uint64_t list_partial_updates = 0;  // updates that searched only the particles that moved
+  std::uint64_t list_searched = 0;         // particles searched by those updates
 };
 
 // Wall time of one system of the step's task graph while profiling was on (World::set_profiling).
