@@ -59,6 +59,9 @@ struct EmbeddedMesh {
   // Derived, evaluated when the mesh is read (systems/mesh_vertices.cpp):
   std::vector<Mat3> deformation;       // F_p, the particle's local deformation gradient (or its held rotation)
   std::vector<Mat3> deformation_rate;  // Ḟ_p, 1/s (zero where F_p is a held rotation)
+  std::vector<std::uint8_t> deformation_fitted;  // 1 where F_p is p's own fitted gradient, 0 where it
+                                                 // is a fallback rotation (weighs 1e-3 at shared vertices)
+  std::vector<std::uint8_t> vertex_anchored;     // per vertex: 1 when a tet with a fitted F holds it
   // Step state, kept every step by the mesh_rotations system (systems/mesh_rotations.cpp) for tracked
   // particles (family does not fit, or a bond broke): S_p = F_p of the last step, a rotation (the held
   // rotation) where the family does not fit. Untouched (identity) for particles never tracked.

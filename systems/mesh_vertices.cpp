@@ -11,8 +11,11 @@
 //     rotation of the last step, μ = 1e-3 tr K), i.e. the rotation that best maps the few alive bonds,
 //     the last rotation filling what they leave free (a lone particle keeps its last rotation; two
 //     bonded particles turn with their bond). Ḟ_p ← 0 in both. A vertex v with tet group G
-//     (the tets that currently hold v; tet t is particle t), weights w_t = m_t / Σ_G m:
-//       x_v = Σ w_t (y_t + F_t (X_v − x_t)),   v_v = Σ w_t (v_t + Ḟ_t (X_v − x_t)).
+//     (the tets that currently hold v; tet t is particle t), weights w_t = c_t m_t / Σ_G c m:
+//       x_v = Σ w_t (y_t + F_t (X_v − x_t)),   v_v = Σ w_t (v_t + Ḟ_t (X_v − x_t)),
+//     c_t = 1 where F_t is t's own fitted gradient and 1e-3 where it is a fallback rotation, so a
+//     poorly bonded particle inside a piece follows its fitted neighbours at shared vertices rather
+//     than pulling them apart (its tet would otherwise stretch far more than the particles around it).
 //     Then render components (tets joined through shared vertices) of at most 8 tets are placed
 //     rigidly instead, or by their best-fit affine map when their particles have moved apart
 //     (rigid_small_components below), so debris cannot turn inside out.
@@ -45,6 +48,11 @@ namespace perifx::systems {
 
 namespace {
 
+// Weight (relative to its mass) of a tet whose particle's F_p is a fallback rotation, where it shares
+// a vertex with tets that have their own fitted F: the fitted neighbours place the vertex, so a
+// poorly bonded particle's rotation cannot pull its tet's vertices apart from theirs.
+constexpr double kFallbackWeight = 1e-3;
+
 // F_p and Ḟ_p of one particle (see the header comment). A pure function of the state: the fallback
 // reads the held rotation that the mesh_rotations system keeps current every step.
 void particle_deformation(WorldState& w, std::size_t p) {
@@ -68,12 +76,14 @@ void particle_deformation(WorldState& w, std::size_t p) {
   }
   Mat3& F = e.deformation[p];
   Mat3& Fd = e.deformation_rate[p];
+  e.deformation_fitted[p] = 0;
   if (family_fits(K, alive)) {
     const Mat3 Kinv = K.inverse();
     const Mat3 Fnew = N * Kinv;
     if (deformation_conditioned(Fnew)) {
       F = Fnew;
       Fd = Nd * Kinv;
+      e.deformation_fitted[p] = 1;
       return;
     }
     F = polar_rotation(Fnew);  // badly stretched or inverted: its rotation only
@@ -204,6 +214,8 @@ void update_mesh_vertices(WorldState& w, double dt) {
     if (e.held_deformation.size() != np) init_held_rotations(w);  // first call (setup)
     e.deformation.resize(np);
     e.deformation_rate.resize(np);
+    e.deformation_fitted.resize(np);
+    e.vertex_anchored.resize(e.vertices.size());
     parallel_for_each(np, [&](std::size_t p) { particle_deformation(w, p); }, 256);
     const auto& mass = w.particles.mass;
     parallel_for_each(e.vertices.size(), [&](std::size_t v) {
@@ -211,18 +223,65 @@ void update_mesh_vertices(WorldState& w, double dt) {
       const Vec3 X = e.reference_vertices[v];
       Vec3 pos = Vec3::Zero(), vv = Vec3::Zero();
       double m = 0.0;
+      std::uint8_t anchored = 0;  // some tet of the group has its own fitted F
       for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
         const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
         if (e.tets[t][s] != v) continue;
+        anchored |= e.deformation_fitted[t];
         const Vec3 d = X - x[t];
-        pos += mass[t] * (y[t] + e.deformation[t] * d);
-        vv += mass[t] * (vel[t] + e.deformation_rate[t] * d);
-        m += mass[t];
+        const double wt = e.deformation_fitted[t] ? mass[t] : kFallbackWeight * mass[t];
+        pos += wt * (y[t] + e.deformation[t] * d);
+        vv += wt * (vel[t] + e.deformation_rate[t] * d);
+        m += wt;
       }
       if (m > 0.0) {
         e.vertices[v] = pos / m;
         e.vertex_velocity[v] = vv / m;
       }
+      e.vertex_anchored[v] = anchored;
+    }, 1024);
+    // Loose vertices (only fallback tets hold them) of fallback tets that also hold anchored vertices
+    // (placed by fitted tets): such a tet hangs rigidly from its anchored vertices,
+    // x_v = ā_t + R_t (X_v − Ā_t) (ā_t, Ā_t: current and reference centre of t's anchored vertices;
+    // R_t the rotation of Σ (a_u − ā)(A_u − Ā)ᵀ + μ F_t, μ = 1e-3 Σ |A_u − Ā|², i.e. the rotation that
+    // best maps the anchors, t's own rotation filling what they leave free; F_t with one anchor),
+    // instead of following its particle, which its few stretched bonds may have let drift away from
+    // the piece: otherwise the tet stretches between the piece and the particle far more than any bond
+    // does. Reads only anchored vertices, writes only loose ones: parallel and deterministic.
+    parallel_for_each(e.vertices.size(), [&](std::size_t v) {
+      if (e.vertex_anchored[v]) return;
+      const std::uint32_t o = e.origin[v];
+      const Vec3 X = e.reference_vertices[v];
+      Vec3 pos = Vec3::Zero();
+      double m = 0.0;
+      bool hangs = false;
+      for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
+        const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
+        if (e.tets[t][s] != v) continue;
+        Vec3 a = Vec3::Zero(), A = Vec3::Zero();
+        int anchors = 0;
+        for (std::uint32_t u : e.tets[t])
+          if (e.vertex_anchored[u]) a += e.vertices[u], A += e.reference_vertices[u], ++anchors;
+        if (anchors > 0) {
+          a /= anchors;
+          A /= anchors;
+          // The rotation that best maps the anchors, F_t filling what they leave free.
+          Mat3 H = Mat3::Zero();
+          double spread = 0.0;
+          for (std::uint32_t u : e.tets[t])
+            if (e.vertex_anchored[u]) {
+              H += (e.vertices[u] - a) * (e.reference_vertices[u] - A).transpose();
+              spread += (e.reference_vertices[u] - A).squaredNorm();
+            }
+          const Mat3 R = anchors > 1 ? polar_rotation(Mat3(H + 1e-3 * spread * e.deformation[t])) : e.deformation[t];
+          pos += mass[t] * (a + R * (X - A));
+          hangs = true;
+        } else {
+          pos += mass[t] * (y[t] + e.deformation[t] * (X - x[t]));
+        }
+        m += mass[t];
+      }
+      if (hangs && m > 0.0) e.vertices[v] = pos / m;
     }, 1024);
     rigid_small_components(w);
     return;
