@@ -609,6 +609,48 @@ TEST_CASE("embedded mesh: a small piece whose particles moved apart follows its 
   CHECK(inverted == 0);
 }
 
+TEST_CASE("embedded mesh: a tet whose particle hangs on by one stretched bond keeps its shape and leaves its piece's vertices alone") {
+  auto sc = test::box_scene(Vec3(0.2, 0.1, 0.1), 0.025, kKappa, kMu);
+  World world(sc);
+  WorldState& w = world.state_mutable();
+  const auto& x = w.particles.reference_position;
+  const auto& e = w.embedded;
+  // The corner particle p keeps one bond, to a face neighbour q: its tet stays on the body through that
+  // face, but with one bond p has no deformation gradient of its own (fallback rotation).
+  std::uint32_t p = 0;
+  for (std::uint32_t i = 0; i < x.size(); ++i)
+    if (x[i].sum() > x[p].sum()) p = i;
+  std::int32_t q = -1;
+  for (const std::int32_t u : e.neighbors[p])
+    if (u >= 0 && q < 0) q = u;
+  REQUIRE(q >= 0);
+  run_mesh_systems(w);
+  break_bonds(w, [&](std::uint32_t i, std::uint32_t j) {
+    return (i == p || j == p) && !(i == std::uint32_t(q) || j == std::uint32_t(q));
+  });
+  // The body translates; p drifts 1.5 cells further out (its last bond stretched, as ductile debris).
+  const Vec3 shift(0.01, -0.02, 0.005);
+  for (std::size_t i = 0; i < x.size(); ++i) w.particles.position[i] = x[i] + shift;
+  w.particles.position[p] += 1.5 * 0.025 * Vec3(1, 1, 1).normalized();
+  run_mesh_systems(w);
+  double worst_ratio = 0.0, body_error = 0.0;
+  const auto& tet = e.tets[p];
+  for (int a = 0; a < 4; ++a)
+    for (int b = a + 1; b < 4; ++b) {
+      const auto u = tet[static_cast<std::size_t>(a)], v = tet[static_cast<std::size_t>(b)];
+      worst_ratio = std::max(worst_ratio, (e.vertices[u] - e.vertices[v]).norm() /
+                                              (e.reference_vertices[u] - e.reference_vertices[v]).norm());
+    }
+  // Every vertex that a tet other than p's holds follows the body (identity F there).
+  for (std::size_t t = 0; t < e.tets.size(); ++t) {
+    if (t == p) continue;
+    for (auto v : e.tets[t]) body_error = std::max(body_error, (e.vertices[v] - (e.reference_vertices[v] + shift)).norm());
+  }
+  MESSAGE("hanging tet: worst edge ratio " << worst_ratio << ", body vertices off by " << body_error / 0.025 << " cells");
+  CHECK(worst_ratio < 1.01);         // a rigid copy hung from its shared vertices
+  CHECK(body_error < 0.01 * 0.025);  // p's rotation weighs 1e-3 at the shared vertices
+}
+
 TEST_CASE("embedded mesh: under random breaking and large random motion no vertex extrapolates beyond its group") {
   auto sc = test::box_scene(Vec3(0.2, 0.1, 0.1), 0.02, kKappa, kMu);
   World world(sc);
