@@ -7,6 +7,9 @@
 //                     x planes): N faces become pending and are opened by splitting in that step.
 //   BM_MeshVertices   the per-frame vertex pass (VertexMotion::deformation: F_p of every particle
 //                     from its bonds, then every vertex; paid once per output frame).
+//   BM_CrackSmoothing/N  the per-frame crack smoothing (crack_smoothing.cpp, the default 3 iterations)
+//                     with N face pairs of grid planes cracked and split (as BM_MeshSplit), then the
+//                     vertex pass it precedes when the mesh is read: what World::surface adds per frame.
 //   BM_MeshRotations/P  the per-step held-rotation system (mesh_rotations.cpp) with P % of the
 //                     particles tracked (0: an intact body, only the scan; 100: every particle damaged,
 //                     the worst case). Tracked particles are set directly; their families are intact, so
@@ -106,6 +109,40 @@ void BM_MeshVertices(benchmark::State& state) {
   state.counters["vertices"] = static_cast<double>(w.embedded.vertices.size());
 }
 BENCHMARK(BM_MeshVertices)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+void BM_CrackSmoothing(benchmark::State& state) {
+  const auto faces = static_cast<std::size_t>(state.range(0));
+  const int threads = static_cast<int>(state.range(1));
+  World& world = world_for(kParticles, threads);
+  WorldState& w = world.state_mutable();
+  const EmbeddedMesh snapshot = w.embedded;
+  const std::vector<std::uint8_t> alive = w.bonds.alive;
+  for (std::uint32_t p : plane_pairs(w, faces)) {
+    const std::uint32_t k = w.embedded.pair_bond[p];
+    w.bonds.alive[k] = w.bonds.alive[w.bonds.reverse[k]] = 0;
+  }
+  arena(threads).execute([&] {
+    systems::collect_crack_faces(w);
+    systems::split_mesh_vertices(w);
+  });
+  std::size_t moved = 0;
+  for (auto _ : state)
+    arena(threads).execute([&] {
+      moved = systems::smooth_crack_faces(w, 3);
+      systems::update_mesh_vertices(w, 0.0);
+    });
+  state.counters["crack_faces"] = static_cast<double>(faces);
+  state.counters["vertices_moved"] = static_cast<double>(moved);
+  w.embedded = snapshot;
+  w.bonds.alive = alive;
+}
+BENCHMARK(BM_CrackSmoothing)
+    ->ArgNames({"faces", "threads"})
+    ->Args({1000, 1})
+    ->Args({100000, 1})
+    ->Args({100000, 2})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 void BM_MeshRotations(benchmark::State& state) {
   const auto percent = static_cast<std::size_t>(state.range(0));
