@@ -62,11 +62,14 @@ struct EmbeddedMesh {
   std::vector<std::uint8_t> deformation_fitted;  // 1 where F_p is p's own fitted gradient, 0 where it
                                                  // is a fallback rotation (weighs 1e-3 at shared vertices)
   std::vector<std::uint8_t> vertex_anchored;     // per vertex: 1 when a tet with a fitted F holds it
-  // Step state, kept every step by the mesh_rotations system (systems/mesh_rotations.cpp) for tracked
-  // particles (family does not fit, or a bond broke): S_p = F_p of the last step, a rotation (the held
-  // rotation) where the family does not fit. Untouched (identity) for particles never tracked.
+  // Step state, kept by the mesh_rotations system (systems/mesh_rotations.cpp) for tracked particles
+  // (family does not fit, or a bond broke): S_p = F_p of the last evaluation (every step for a poor
+  // family with alive bonds, at most kRefreshSteps = 8 steps old for a fitting one), a rotation (the
+  // held rotation) where the family does not fit. Untouched (identity) for particles never tracked.
   std::vector<Mat3> held_deformation;
   std::vector<std::uint8_t> held_tracked;  // 1 once p is tracked (never goes back to 0)
+  std::vector<std::uint8_t> held_fits;     // 1 when p's alive family fitted at its last evaluation
+  std::vector<std::uint32_t> held_broken_seen;  // p's broken-bond count at its last evaluation
 
   // ---- per tet ----
   std::vector<std::array<std::uint32_t, 4>> tets;        // current vertex indices (splitting rewrites)

@@ -175,6 +175,8 @@ void for_each_array(W& w, F&& f) {
   f(K::mesh, "embedded.vertex_anchored", e.vertex_anchored);
   f(K::mesh, "embedded.held_deformation", e.held_deformation);
   f(K::mesh, "embedded.held_tracked", e.held_tracked);
+  f(K::mesh, "embedded.held_fits", e.held_fits);
+  f(K::mesh, "embedded.held_broken_seen", e.held_broken_seen);
   f(K::mesh, "embedded.tets", e.tets);
   f(K::mesh, "embedded.neighbors", e.neighbors);
   f(K::mesh, "embedded.face_pair", e.face_pair);

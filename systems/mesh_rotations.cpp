@@ -12,9 +12,17 @@
 //                     last step (R_old itself when p has no alive bond): regularized Kabsch.
 // A particle tracked for the first time was intact at the previous step, so its R_old is the rotation
 // of F over its whole original family at the current positions.
+// Whether a family fits depends only on its alive set (K is built from reference quantities), which
+// changes only when one of its bonds breaks. So a tracked particle is evaluated in full only in a step
+// where its broken-bond count changed; otherwise a fitting one refreshes S_p only every
+// kRefreshSteps steps (staggered by index: p ≡ step mod kRefreshSteps), since S_p serves only as R_old
+// at the step its family stops fitting, and a poor one with no alive bond keeps S_p (a lone particle
+// keeps its rotation). Only poor families with alive bonds turn every step. In shattered glass most
+// particles are tracked and fit, and evaluating all of them every step took 30–45 % of the step.
 // S_p (EmbeddedMesh::held_deformation) is part of the state (checkpointed); the per-frame vertex pass
 // (mesh_vertices.cpp) reads it for the fallback particles and is otherwise a pure function of the state.
-// Cost per step: bonds of the tracked particles (two outer products each); nothing for intact ones.
+// Cost per step: bonds of the tracked particles with new breaks or a poor family, and of 1/kRefreshSteps
+// of the other tracked ones (two outer products each); nothing for intact ones.
 // Parallel over particles, each writes its own S_p: deterministic for any thread count.
 // Reads:  position, bond_alive, damage (broken_bonds), mesh.   Writes: mesh (held_deformation, held_tracked).
 #include <algorithm>
@@ -36,6 +44,8 @@ bool deformation_conditioned(const Mat3& F) {
 }
 
 namespace {
+
+constexpr std::uint64_t kRefreshSteps = 8;
 
 // K and N over p's bonds (alive ones only, or all); returns the number of bonds summed.
 std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N) {
@@ -63,12 +73,15 @@ void step_particle(WorldState& w, std::size_t p) {
   Mat3 K, N;
   const std::uint32_t alive = family_sums(w, p, true, K, N);
   Mat3& S = e.held_deformation[p];
+  e.held_broken_seen[p] = w.state.broken_bonds.empty() ? 0 : w.state.broken_bonds[p];
   if (family_fits(K, alive)) {
     const Mat3 F = N * K.inverse();
     S = deformation_conditioned(F) ? F : polar_rotation(F);
     e.held_tracked[p] = 1;
+    e.held_fits[p] = 1;
     return;
   }
+  e.held_fits[p] = 0;
   Mat3 held;
   if (e.held_tracked[p]) {
     held = polar_rotation(S);
@@ -89,6 +102,8 @@ void init_held_rotations(WorldState& w) {
   const std::size_t np = w.particles.count();
   e.held_deformation.assign(np, Mat3::Identity());
   e.held_tracked.assign(np, 0);
+  e.held_fits.assign(np, 0);                   // unknown: the first evaluation is a full one
+  e.held_broken_seen.assign(np, ~std::uint32_t{0});
   // Particles whose family does not fit from the start (thin sheets, lone particles) or that already
   // have a dead bond (initial cracks) are tracked from the start, holding the identity (the reference
   // configuration). So an untracked particle always had every listed bond alive at the last step.
@@ -106,9 +121,15 @@ void update_held_rotations(WorldState& w) {
   const std::size_t np = w.particles.count();
   if (e.held_deformation.size() != np) init_held_rotations(w);
   const auto& broken = w.state.broken_bonds;
-  const bool counted = broken.size() == np;
+  const auto& initial = w.bonds.initial_count;
+  const bool counted = broken.size() == np && initial.size() == np;
+  const std::uint64_t phase = w.clock.step % kRefreshSteps;
   parallel_for_each(np, [&](std::size_t p) {
     if (!e.held_tracked[p] && !(counted && broken[p] > 0)) return;  // intact, family fits
+    if (counted && broken[p] == e.held_broken_seen[p]) {  // alive set unchanged since the last evaluation
+      if (e.held_fits[p] && p % kRefreshSteps != phase) return;  // S_p is only R_old: refreshed in turn
+      if (!e.held_fits[p] && broken[p] >= initial[p]) return;     // no alive bond: keeps its rotation
+    }
     step_particle(w, p);
   }, 256);
 }
