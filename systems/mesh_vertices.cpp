@@ -223,11 +223,13 @@ void update_mesh_vertices(WorldState& w, double dt) {
       const Vec3 X = e.reference_vertices[v];
       Vec3 pos = Vec3::Zero(), vv = Vec3::Zero();
       double m = 0.0;
-      std::uint8_t anchored = 0;  // some tet of the group has its own fitted F
+      std::uint8_t fitted = 0;  // some tet of the group has its own fitted F
+      std::uint32_t group = 0;
       for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
         const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
         if (e.tets[t][s] != v) continue;
-        anchored |= e.deformation_fitted[t];
+        fitted |= e.deformation_fitted[t];
+        ++group;
         const Vec3 d = X - x[t];
         const double wt = e.deformation_fitted[t] ? mass[t] : kFallbackWeight * mass[t];
         pos += wt * (y[t] + e.deformation[t] * d);
@@ -238,16 +240,18 @@ void update_mesh_vertices(WorldState& w, double dt) {
         e.vertices[v] = pos / m;
         e.vertex_velocity[v] = vv / m;
       }
-      e.vertex_anchored[v] = anchored;
+      e.vertex_anchored[v] = fitted && group >= 2;
     }, 1024);
-    // Loose vertices (only fallback tets hold them) of fallback tets that also hold anchored vertices
-    // (placed by fitted tets): such a tet hangs rigidly from its anchored vertices,
-    // x_v = ā_t + R_t (X_v − Ā_t) (ā_t, Ā_t: current and reference centre of t's anchored vertices;
-    // R_t the rotation of Σ (a_u − ā)(A_u − Ā)ᵀ + μ F_t, μ = 1e-3 Σ |A_u − Ā|², i.e. the rotation that
-    // best maps the anchors, t's own rotation filling what they leave free; F_t with one anchor),
-    // instead of following its particle, which its few stretched bonds may have let drift away from
-    // the piece: otherwise the tet stretches between the piece and the particle far more than any bond
-    // does. Reads only anchored vertices, writes only loose ones: parallel and deterministic.
+    // Loose vertices: held only by fallback tets, or by one tet alone. A loose vertex's tet that also
+    // holds anchored vertices (a group of two or more tets with a fitted F) hangs from them:
+    // x_v = ā_t + G_t (X_v − Ā_t) (ā_t, Ā_t: current and reference centre of t's anchored vertices),
+    // G_t = F_t for a fitted tet, else the rotation of Σ (a_u − ā)(A_u − Ā)ᵀ + μ F_t,
+    // μ = 1e-3 Σ |A_u − Ā|² (the rotation that best maps the anchors, t's own rotation filling what
+    // they leave free; F_t with one anchor). Without this the vertex follows t's particle, which can
+    // be off from where the tets around place the anchors: a particle hanging on by a few stretched
+    // bonds, or a fitted particle whose F disagrees with its neighbours' across a plastic zone; its tet
+    // then stretched up to 5× between them (showcase, fig05; `check-surface` counted it). Hanging keeps
+    // the tet's own shape. Reads only anchored vertices, writes only loose ones: parallel, deterministic.
     parallel_for_each(e.vertices.size(), [&](std::size_t v) {
       if (e.vertex_anchored[v]) return;
       const std::uint32_t o = e.origin[v];
@@ -273,8 +277,10 @@ void update_mesh_vertices(WorldState& w, double dt) {
               H += (e.vertices[u] - a) * (e.reference_vertices[u] - A).transpose();
               spread += (e.reference_vertices[u] - A).squaredNorm();
             }
-          const Mat3 R = anchors > 1 ? polar_rotation(Mat3(H + 1e-3 * spread * e.deformation[t])) : e.deformation[t];
-          pos += mass[t] * (a + R * (X - A));
+          const Mat3 G = e.deformation_fitted[t] || anchors == 1
+                             ? e.deformation[t]
+                             : polar_rotation(Mat3(H + 1e-3 * spread * e.deformation[t]));
+          pos += mass[t] * (a + G * (X - A));
           hangs = true;
         } else {
           pos += mass[t] * (y[t] + e.deformation[t] * (X - x[t]));
