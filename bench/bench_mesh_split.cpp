@@ -47,6 +47,14 @@ std::vector<std::uint32_t> plane_pairs(const WorldState& w, std::size_t count) {
   return out;
 }
 
+// Breaks both directions of the bond behind each face pair.
+void break_pairs(WorldState& w, const std::vector<std::uint32_t>& pairs) {
+  for (std::uint32_t p : pairs) {
+    const std::uint32_t k = w.embedded.pair_bond[p];
+    w.bonds.alive[k] = w.bonds.alive[w.bonds.reverse[k]] = 0;
+  }
+}
+
 void BM_MeshNoCracks(benchmark::State& state) {
   const int threads = static_cast<int>(state.range(0));
   World& world = world_for(kParticles, threads);
@@ -75,10 +83,7 @@ void BM_MeshSplit(benchmark::State& state) {
     state.PauseTiming();
     w.embedded = snapshot;
     w.bonds.alive = alive;
-    for (std::uint32_t p : pairs) {
-      const std::uint32_t k = w.embedded.pair_bond[p];
-      w.bonds.alive[k] = w.bonds.alive[w.bonds.reverse[k]] = 0;
-    }
+    break_pairs(w, pairs);
     state.ResumeTiming();
     arena(threads).execute([&] {
       systems::collect_crack_faces(w);
@@ -117,10 +122,7 @@ void BM_CrackSmoothing(benchmark::State& state) {
   WorldState& w = world.state_mutable();
   const EmbeddedMesh snapshot = w.embedded;
   const std::vector<std::uint8_t> alive = w.bonds.alive;
-  for (std::uint32_t p : plane_pairs(w, faces)) {
-    const std::uint32_t k = w.embedded.pair_bond[p];
-    w.bonds.alive[k] = w.bonds.alive[w.bonds.reverse[k]] = 0;
-  }
+  break_pairs(w, plane_pairs(w, faces));
   arena(threads).execute([&] {
     systems::collect_crack_faces(w);
     systems::split_mesh_vertices(w);

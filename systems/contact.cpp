@@ -26,7 +26,7 @@
 // list was last decided by the search of one end, i, at a time t*, when |z_i − z_j| ≥ reach. Since then
 // i has moved at most skin/4 and j at most skin/2 (skin/4 each side of its own search position), so
 // the pair has closed by at most ¾ skin and is still farther apart than d_c. A bond that breaks adds its
-// pair when the ends are within reach (add_broken_pairs; same argument, both ends at most skin/2 from
+// pair when the ends are within reach (update_moved_pairs; same argument, both ends at most skin/2 from
 // where they are then). So one fast fragment costs a search for itself, not a rebuild of the whole
 // list (the sheet preview rebuilt it 987 times in 4000 steps when any skin/2 motion rebuilt all).
 // The search uses a hashed uniform grid (spatial_grid.hpp; cell = reach, counting sort, stable:
@@ -82,12 +82,13 @@ std::uint64_t* stamp_row(ContactPairs& pr, std::size_t n) {
   return pr.bonded_stamp.data() + row * n;
 }
 
-// What the pair list needs before this step's forces: nothing, the pairs of bonds broken since the
-// last update, a search for the particles that moved more than skin/4 since their own last search
-// (marked in pr.moved), or a full rebuild (first step, or more than n/kFullRebuildShare moved).
+// What the pair list needs before this step's forces: nothing; an update (update_moved_pairs: a search
+// for the particles that moved more than skin/4 since their own last search, marked in pr.moved, and
+// the pairs of bonds broken since the last update); or a full rebuild (first step, or more than
+// n/kFullRebuildShare moved).
 // `centroid` is the mean position, a fixed-block sum: the same bits for every thread count, and so is
 // every decision here (integer counts and per-particle tests).
-enum class PairUpdate { none, add_broken, moved, rebuild };
+enum class PairUpdate { none, update, rebuild };
 PairUpdate pair_update_needed(WorldState& w, std::uint64_t& broken_now, Vec3& centroid) {
   auto& pr = w.contact.pairs;
   const std::size_t n = w.particles.count();
@@ -124,8 +125,7 @@ PairUpdate pair_update_needed(WorldState& w, std::uint64_t& broken_now, Vec3& ce
       },
       [](std::size_t a, std::size_t b) { return a + b; });
   if (moved > n / kFullRebuildShare) return PairUpdate::rebuild;
-  if (moved > 0) return PairUpdate::moved;
-  return broken_now != pr.broken_at_build ? PairUpdate::add_broken : PairUpdate::none;
+  return moved > 0 || broken_now != pr.broken_at_build ? PairUpdate::update : PairUpdate::none;
 }
 
 // True when particle i has bonds that broke since the list last took in i's breaks (its broken-bond
@@ -150,38 +150,10 @@ bool newly_broken_in_reach(const WorldState& w, std::size_t i, std::uint32_t k) 
   return w.contact.pairs.alive_at_build[k] && !b.alive[k] && (y[b.neighbor[k]] - y[i]).squaredNorm() < reach2;
 }
 
-// Adds to the list the pairs of bonds that broke since the last update and are within reach now
-// (see the header for why that is enough). Both ends of a bond see the same test (bit-symmetric
-// distance), so pairs stay symmetric.
-void add_broken_pairs(WorldState& w, std::uint64_t broken_now) {
-  auto& pr = w.contact.pairs;
-  const auto& b = w.bonds;
-  const std::size_t n = w.particles.count();
-  parallel_for_each(n, [&](std::size_t i) {
-    std::uint32_t count = pr.offsets[i + 1] - pr.offsets[i];
-    if (has_new_breaks(w, i))
-      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) count += newly_broken_in_reach(w, i, k);
-    pr.count[i] = count;
-  }, 1024);
-  pr.offsets_next[0] = 0;
-  for (std::size_t i = 0; i < n; ++i) pr.offsets_next[i + 1] = pr.offsets_next[i] + pr.count[i];
-  pr.neighbor_next.resize(pr.offsets_next[n]);
-  parallel_for_each(n, [&](std::size_t i) {
-    std::uint32_t q = pr.offsets_next[i];
-    for (std::uint32_t p = pr.offsets[i]; p < pr.offsets[i + 1]; ++p) pr.neighbor_next[q++] = pr.neighbor[p];
-    if (!has_new_breaks(w, i)) return;
-    for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k)
-      if (newly_broken_in_reach(w, i, k)) pr.neighbor_next[q++] = b.neighbor[k];
-    take_in_breaks(w, i);  // particle i's own bond slots: no race
-  }, 1024);
-  std::swap(pr.offsets, pr.offsets_next);
-  std::swap(pr.neighbor, pr.neighbor_next);
-  pr.broken_at_build = broken_now;
-  ++pr.additions;
-}
-
 // Searches the moved particles (pr.moved) again and re-decides every pair with a moved end; keeps
-// the other pairs. New list of
+// the other pairs and adds those of bonds broken since the last update that are within reach now (see
+// the header for why that is enough; both ends of a bond see the same bit-symmetric test). With no
+// moved particle it is only that addition (no grid build, no search). New list of
 //   a moved particle i:  its search (unbonded particles within reach now), in grid-visit order;
 //   any other particle j: its old pairs with unmoved partners, in their order; then the bonds broken
 //                         since the last update whose unmoved partner is within reach, in bond order;
@@ -196,7 +168,6 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
   const auto& p = w.particles;
   const auto& b = w.bonds;
   const std::size_t n = p.count();
-  build_grid(c.grid, p.position);
   pr.moved_list.clear();  // reserved to n at setup: no allocation
   for (std::size_t i = 0; i < n; ++i)
     if (pr.moved[i]) pr.moved_list.push_back(static_cast<std::uint32_t>(i));
@@ -204,7 +175,10 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
   // 1. Search from every moved particle: count, keeping the first kScratchPerParticle in its scratch row.
   constexpr std::uint32_t cap = ContactPairs::kScratchPerParticle;
   const std::uint64_t search_base = pr.stamp_base, fill_base = search_base + n + 1;
-  pr.stamp_base = fill_base + n + 1;
+  if (m > 0) {
+    build_grid(c.grid, p.position);
+    pr.stamp_base = fill_base + n + 1;
+  }
   parallel_for_each(m, [&](std::size_t a) {
     const std::uint32_t i = pr.moved_list[a];
     std::uint32_t count = 0;
@@ -272,6 +246,10 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
   std::swap(pr.offsets, pr.offsets_next);
   std::swap(pr.neighbor, pr.neighbor_next);
   pr.broken_at_build = broken_now;
+  if (m == 0) {
+    ++pr.additions;
+    return;
+  }
   ++pr.partial_updates;
   pr.searched += m;
 }
@@ -372,8 +350,7 @@ SystemDecl contact_system(WorldState& w) {
             Vec3 centroid;
             switch (pair_update_needed(w, broken_now, centroid)) {
               case PairUpdate::rebuild: rebuild_pairs(w, broken_now, centroid); break;
-              case PairUpdate::moved: update_moved_pairs(w, broken_now, centroid); break;
-              case PairUpdate::add_broken: add_broken_pairs(w, broken_now); break;
+              case PairUpdate::update: update_moved_pairs(w, broken_now, centroid); break;
               case PairUpdate::none: break;
             }
             auto& c = w.contact;

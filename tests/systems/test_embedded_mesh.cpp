@@ -91,6 +91,13 @@ SurfaceCheck check_surface(const SurfaceMesh& s, double min_area) {
   return c;
 }
 
+// A tet of the embedded mesh with non-positive signed volume at the current vertex positions.
+bool inverted_tet(const EmbeddedMesh& e, std::size_t t) {
+  const auto& tet = e.tets[t];
+  const Vec3 a = e.vertices[tet[0]], b = e.vertices[tet[1]], c = e.vertices[tet[2]], d = e.vertices[tet[3]];
+  return (b - a).cross(c - a).dot(d - a) <= 0.0;
+}
+
 std::vector<std::uint32_t> fragments_of(const WorldState& w) {
   std::vector<std::uint32_t> id;
   systems::compute_fragments(w, id);
@@ -551,8 +558,7 @@ TEST_CASE("embedded mesh: a vertex never leaves its group, single-tet pieces kee
   for (std::size_t t = 0; t < e.tets.size(); ++t) {
     const auto& tet = e.tets[t];
     for (auto v : tet) err = std::max(err, (e.vertices[v] - (w.particles.position[t] + R * (e.reference_vertices[v] - x[t]))).norm());
-    const Vec3 a = e.vertices[tet[0]], b = e.vertices[tet[1]], c = e.vertices[tet[2]], d = e.vertices[tet[3]];
-    inverted += (b - a).cross(c - a).dot(d - a) <= 0.0;
+    inverted += inverted_tet(e, t);
   }
   MESSAGE("single-tet pieces: worst vertex error " << err / 0.2 << " of the body size, inverted " << inverted);
   CHECK(err / 0.2 < 1e-12);
@@ -601,8 +607,7 @@ TEST_CASE("embedded mesh: a small piece whose particles moved apart follows its 
       err = std::max(err, (e.vertices[v] - (c + F * (e.reference_vertices[v] - c) + shift)).norm());
       scale = std::max(scale, (e.reference_vertices[v] - c).norm());
     }
-    const Vec3 a = e.vertices[tet[0]], b = e.vertices[tet[1]], d = e.vertices[tet[2]], f = e.vertices[tet[3]];
-    inverted += (b - a).cross(d - a).dot(f - a) <= 0.0;
+    inverted += inverted_tet(e, t);
   }
   MESSAGE("6-tet piece under a stretched affine map: worst vertex error / piece size " << err / scale << ", inverted " << inverted);
   CHECK(err / scale < 1e-12);
