@@ -17,6 +17,7 @@
 // The mesh is restored from a snapshot outside the timed region before each BM_MeshSplit iteration.
 #include <algorithm>
 
+#include "systems/bond_rules.hpp"
 #include "bench_support.hpp"
 
 namespace perifx::bench {
@@ -50,8 +51,8 @@ std::vector<std::uint32_t> plane_pairs(const WorldState& w, std::size_t count) {
 // Breaks both directions of the bond behind each face pair.
 void break_pairs(WorldState& w, const std::vector<std::uint32_t>& pairs) {
   for (std::uint32_t p : pairs) {
-    const std::uint32_t k = w.embedded.pair_bond[p];
-    w.bonds.alive[k] = w.bonds.alive[w.bonds.reverse[k]] = 0;
+    const std::uint32_t k = w.embedded.pair_bond[p];  // bond t→u, owned by t (the pair's first tet)
+    w.bonds.alive[k] = w.bonds.alive[systems::mirror_bond(w.bonds, w.embedded.pair_tets[p][0], k)] = 0;
   }
 }
 

@@ -151,9 +151,6 @@ void for_each_array(W& w, F&& f) {
   f(K::particle, "bonds.offsets", b.offsets);
   f(K::particle, "bonds.initial_count", b.initial_count);
   f(K::bond, "bonds.neighbor", b.neighbor);
-  f(K::bond, "bonds.reverse", b.reverse);
-  f(K::bond, "bonds.reference_length", b.reference_length);
-  f(K::bond, "bonds.weight", b.weight);
   f(K::bond, "bonds.alive", b.alive);
   f(K::bond, "bonds.break_scale", b.break_scale);
   f(K::bond, "bonds.plastic_extension", b.plastic_extension);

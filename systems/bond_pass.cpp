@@ -39,12 +39,12 @@ void pack_bond_ends(WorldState& w) {
   }, 4096);
 }
 
-template <bool kAnisotropic, bool kPlastic, bool kFracture>
+template <bool kAnisotropic, bool kPlastic, bool kFracture, bool kScaled>
 void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>& force) {
   pack_bond_ends(w);
   // Raw pointers, captured by value and copied into the task's locals (BondStreams in bond_rules.hpp
   // says why: the alive stores).
-  const auto bs_p = bond_streams(w.bonds, y_vec, w.particles.reference_position);
+  const auto bs_p = bond_streams(w, y_vec);
   const BondEnd* const ends_p = w.state.bond_end.data();
   const std::uint32_t* const initial_count_p = w.bonds.initial_count.data();
   double* const damage_p = w.state.damage.data();
@@ -56,44 +56,49 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
     const auto o = bs.origin(i);
     const BondEnd end_i = ends[i];
     const SideConstants side_i = side_constants(end_i);
+    const Mat3& g_i = bs.anisotropy(i);
     double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
     std::uint64_t alive_lanes[kBondLanes] = {}, breaks_lanes[kBondLanes] = {};
-    auto lane = [=, &fx, &fy, &fz, &alive_lanes, &breaks_lanes](std::size_t k, int l, std::uint64_t was_alive) {
+    auto lane = [=, &g_i, &fx, &fy, &fz, &alive_lanes, &breaks_lanes](std::size_t k, int l, std::uint64_t was_alive) {
       const std::size_t j = bs.neighbor[k];
-      const double r = bs.reference_length[k];
       const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
       const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
+      const double r = reference_length(dxx, dxy, dxz);
       BondGeometry g;
       // A collapsed bond (coincident particles) has no direction: no force, no flow, no break.
       const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (was_alive != 0);
       const BondEnd& end_j = ends[j];
       const SideConstants side_j = side_constants(end_j);
-      const double w_ij = bs.weight[k];
-      const double w_ji = kAnisotropic ? bs.weight[bs.reverse[k]] : w_ij;
+      const double l_ij = weighted_length<kAnisotropic>(g_i, r, dxx, dxy, dxz);
+      const double l_ji = weighted_length<kAnisotropic>(bs.anisotropy(j), r, dxx, dxy, dxz);
       double ep_ij = 0.0, ep_ji = 0.0;
-      if constexpr (kPlastic) {  // plasticity.cpp
-        const double old_ij = bs.plastic[k], old_ji = bs.plastic_mirror[k];
-        ep_ij = side_plastic_extension<kAnisotropic>(g, r, w_ij, old_ij, side_i);
-        ep_ji = side_plastic_extension<kAnisotropic>(g, r, w_ji, old_ji, side_j);
-        ep_ij = active ? ep_ij : old_ij;
-        ep_ji = active ? ep_ji : old_ji;
-        bs.plastic[k] = ep_ij;
-        bs.plastic_mirror[k] = ep_ji;
+      if constexpr (kPlastic) {  // plasticity.cpp. Stored as float; the force and the break test use the
+        // rounded value, as the separate systems do when they read it back. Selected in float, then
+        // widened once (a select between a float and a double kept GCC 12 from vectorizing the loop).
+        const float old_ij = bs.plastic[k], old_ji = bs.plastic_mirror[k];
+        const float new_ij = static_cast<float>(side_plastic_extension(g, r, l_ij, old_ij, side_i));
+        const float new_ji = static_cast<float>(side_plastic_extension(g, r, l_ji, old_ji, side_j));
+        const float kept_ij = active ? new_ij : old_ij, kept_ji = active ? new_ji : old_ji;
+        bs.plastic[k] = kept_ij;
+        bs.plastic_mirror[k] = kept_ji;
+        ep_ij = kept_ij;
+        ep_ji = kept_ji;
       }
       // elastic_force.cpp. Computed for every lane, then selected: a load inside the condition would
       // be a masked gather.
-      const double density = paired_force_density<kPlastic>(g, w_ij, w_ji, ep_ij, ep_ji, end_i.coupling, end_i.b4,
-                                                            end_j.coupling, end_j.b4, end_j.volume);
+      const double density = paired_force_density<kAnisotropic, kPlastic>(
+          g, force_weight<kAnisotropic>(side_i.horizon, l_ij), force_weight<kAnisotropic>(side_j.horizon, l_ji), ep_ij,
+          ep_ji, end_i.coupling, end_i.b4, end_j.coupling, end_j.b4, end_j.volume);
       const double c = active ? density : 0.0;
       fx[l] += c * dyx;
       fy[l] += c * dyy;
       fz[l] += c * dyz;
       std::uint64_t breaks = 0;
       if constexpr (kFracture) {  // fracture.cpp
-        const double scale = bs.break_scale[k];
+        const double scale = kScaled ? double(bs.break_scale[k]) : 1.0;
         breaks = static_cast<std::uint64_t>(active & (g.extension > 0.0) &
-                                            (side_breaks<kAnisotropic>(g, r, w_ij, ep_ij, side_i, scale) |
-                                             side_breaks<kAnisotropic>(g, r, w_ji, ep_ji, side_j, scale)));
+                                            (side_breaks<kAnisotropic>(g, r, l_ij, ep_ij, side_i, scale) |
+                                             side_breaks<kAnisotropic>(g, r, l_ji, ep_ji, side_j, scale)));
       }
       breaks_lanes[l] = breaks;
       alive_lanes[l] += was_alive & ~breaks;  // damage.cpp (a collapsed bond stays alive)
@@ -118,10 +123,11 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
 
 void run_bond_pass(WorldState& w, const std::vector<Vec3>& y, std::vector<Vec3>& force) {
   dispatch_flags(
-      [&](auto aniso, auto plastic, auto fracture) {
-        bond_pass<decltype(aniso)::value, decltype(plastic)::value, decltype(fracture)::value>(w, y, force);
+      [&](auto aniso, auto plastic, auto fracture, auto scaled) {
+        bond_pass<decltype(aniso)::value, decltype(plastic)::value, decltype(fracture)::value, decltype(scaled)::value>(
+            w, y, force);
       },
-      w.any_anisotropic, w.any_plastic, w.any_fracture);
+      w.any_anisotropic, w.any_plastic, w.any_fracture, !w.bonds.break_scale.empty());
 }
 
 SystemDecl bond_pass_system(WorldState& w) {

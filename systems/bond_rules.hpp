@@ -21,17 +21,62 @@
 #include "components/bonds.hpp"
 #include "components/math.hpp"
 #include "components/particles.hpp"
+#include "components/world_state.hpp"
 
 namespace perifx::systems {
 
+// |ξ| = |x_j − x_i| of a bond, recomputed wherever it is needed: Bonds stores no reference length
+// (components/bonds.hpp). Every caller uses this one expression, so a bond has the same |ξ| to the
+// bit in every kernel and from both of its ends (x_i − x_j is the exact negation of x_j − x_i).
+inline double reference_length(double dxx, double dxy, double dxz) {
+  return std::sqrt(dxx * dxx + dxy * dxy + dxz * dxz);
+}
+inline double reference_length(const Vec3& xi) { return reference_length(xi.x(), xi.y(), xi.z()); }
+
+// Weighted length of a bond side, ℓ_ij = |G_i ξ| (Eq 17; ω_ij = δ_i/ℓ_ij, Eq 5): |ξ| = r for the
+// isotropic weight. The yield and break limits below scale with it. Also bit-symmetric: G(−ξ) is the
+// exact negation of Gξ.
+inline double anisotropic_length(const Mat3& g, double dxx, double dxy, double dxz) {
+  const double gx = g(0, 0) * dxx + g(0, 1) * dxy + g(0, 2) * dxz;
+  const double gy = g(1, 0) * dxx + g(1, 1) * dxy + g(1, 2) * dxz;
+  const double gz = g(2, 0) * dxx + g(2, 1) * dxy + g(2, 2) * dxz;
+  return std::sqrt(gx * gx + gy * gy + gz * gz);
+}
+template <bool kAnisotropic>
+inline double weighted_length(const Mat3& g, double r, double dxx, double dxy, double dxz) {
+  if constexpr (kAnisotropic) return anisotropic_length(g, dxx, dxy, dxz);
+  else return r;
+}
+
+// ω_ij = δ_i/ℓ_ij of particle i's bond with reference vector ξ (Eq 5, 17), for code off the bond
+// kernels' hot path (model constants, deformation fits, energy, virial stress).
+inline double bond_weight(const WorldState& w, std::size_t i, const Vec3& xi) {
+  const double l = w.any_anisotropic
+                       ? anisotropic_length(w.settings.materials[w.particles.material_id[i]].anisotropy, xi.x(), xi.y(), xi.z())
+                       : reference_length(xi);
+  return w.model.horizon[i] / l;
+}
+
+// The mirror j→i of particle i's bond k (binary search in j's sorted row). Setup code and tests only.
+inline std::uint32_t mirror_bond(const Bonds& b, std::size_t i, std::size_t k) {
+  const std::uint32_t j = b.neighbor[k];
+  const auto first = b.neighbor.begin() + b.offsets[j], last = b.neighbor.begin() + b.offsets[j + 1];
+  return static_cast<std::uint32_t>(std::lower_bound(first, last, static_cast<std::uint32_t>(i)) - b.neighbor.begin());
+}
+// Every bond's mirror index (length bonds; family_build.cpp), for setup passes and tests.
+std::vector<std::uint32_t> mirror_bonds(const Bonds& b);
+
 // Eq 7 for one bond: extension e = |y_j − y_i| − |ξ| and Λ = n·ξ/|ξ| (the cosine between the deformed
-// and the reference bond). dy = y_j − y_i, dxi = ξ = x_j − x_i, r = |ξ|. One division serves both
-// 1/|y_j − y_i| and Λ (divisions and the square root bound the bond passes). Returns false for a
-// collapsed bond (coincident particles: no direction, so no force, no plastic flow, no break).
+// and the reference bond). dy = y_j − y_i, dxi = ξ = x_j − x_i, r = |ξ|. One division serves
+// 1/|y_j − y_i|, 1/(|y_j − y_i| |ξ|) and Λ (divisions and square roots bound the bond passes).
+// Returns false for a collapsed bond (coincident particles: no direction, so no force, no plastic
+// flow, no break).
 struct BondGeometry {
-  double extension;       // e, m
-  double cosine;          // Λ
-  double inverse_length;  // 1/|y_j − y_i|, 1/m
+  double extension;         // e, m
+  double cosine;            // Λ
+  double inverse_length;    // 1/|y_j − y_i|, 1/m
+  double inverse_length_r;  // 1/(|y_j − y_i| |ξ|), 1/m²: with the isotropic weight ω = δ/|ξ|, the
+                            // 1/|ξ| of both sides' ω comes in through this one factor
 };
 // Component form, branch-free so that it vectorizes: for a collapsed bond the outputs are not finite
 // and the caller must mask them out with the returned flag.
@@ -39,6 +84,7 @@ inline bool bond_geometry(double dyx, double dyy, double dyz, double dxx, double
                           BondGeometry& g) {
   const double len = std::sqrt(dyx * dyx + dyy * dyy + dyz * dyz);
   const double inv_len_r = 1.0 / (len * r);
+  g.inverse_length_r = inv_len_r;
   g.inverse_length = r * inv_len_r;
   g.extension = len - r;
   g.cosine = (dyx * dxx + dyy * dxy + dyz * dxz) * inv_len_r;
@@ -59,21 +105,19 @@ inline double side_force_state(const BondGeometry& g, double weight, double plas
 
 // Paired force density of a bond, ½(A_ij + A_ji)/|y_j − y_i| · V_j (Eq 2–4, 8, 12 with the plastic
 // extensions; elastic_force.cpp): multiplied by y_j − y_i it is the bond's force on particle i per
-// unit V_i.
-template <bool kPlastic>
+// unit V_i. The side weights come as force_weight forms them: anisotropic, ω_ij and ω_ji; isotropic,
+// δ_i and δ_j, whose common 1/|ξ| enters with g.inverse_length_r (a multiplication, no division).
+template <bool kAnisotropic>
+inline double force_weight(double horizon, double length) {
+  if constexpr (kAnisotropic) return horizon / length;
+  else return horizon;
+}
+template <bool kAnisotropic, bool kPlastic>
 inline double paired_force_density(const BondGeometry& g, double w_ij, double w_ji, double ep_ij, double ep_ji,
                                    double p_i, double b4_i, double p_j, double b4_j, double v_j) {
   const double a_ij = side_force_state<kPlastic>(g, w_ij, ep_ij, p_i, b4_i);
   const double a_ji = side_force_state<kPlastic>(g, w_ji, ep_ji, p_j, b4_j);
-  return 0.5 * (a_ij + a_ji) * g.inverse_length * v_j;
-}
-
-// Weighted length of a bond side, ℓ_ij = δ_i/ω_ij = |G_i ξ| (Eq 5, 17): |ξ| for the isotropic weight.
-// The yield and break limits below scale with it.
-template <bool kAnisotropic>
-inline double weighted_length(double r, double horizon, double weight) {
-  if constexpr (kAnisotropic) return horizon / weight;
-  else return r;
+  return 0.5 * (a_ij + a_ji) * (kAnisotropic ? g.inverse_length : g.inverse_length_r) * v_j;
 }
 
 // Plasticity, Eq 11–16 with the consistent return of systems/README.md §3, for one side of a bond:
@@ -130,23 +174,20 @@ inline SideConstants side_constants(const BondEnd& e) {
   return {e.beta_theta, e.yield_extension, e.plastic_cap, e.horizon, e.break_extension};
 }
 
-// Plasticity of one side of bond k (this step's e, Λ; ω and e^p of that side): the new e^p.
-template <bool kAnisotropic>
-inline double side_plastic_extension(const BondGeometry& g, double r, double weight, double plastic_extension,
+// Plasticity of one side of bond k (this step's e, Λ; the side's weighted length ℓ and e^p): the new e^p.
+inline double side_plastic_extension(const BondGeometry& g, double r, double length, double plastic_extension,
                                      const SideConstants& c) {
-  const double length = weighted_length<kAnisotropic>(r, c.horizon, weight);
   return plastic_return(g.extension - c.beta_theta * g.cosine, plastic_extension, c.yield_extension * length,
                         c.plastic_cap * r);
 }
 
-// Fracture of one side of bond k with that side's (new) e^p; `scale` is the bond's break multiplier
-// (Bonds::break_scale: weak planes, 1 elsewhere, which leaves the limit unchanged bit for bit).
+// Fracture of one side of bond k with that side's weighted length ℓ and (new) e^p; `scale` is the
+// bond's break multiplier (Bonds::break_scale: weak planes, 1 elsewhere, which leaves the limit
+// unchanged bit for bit).
 template <bool kAnisotropic>
-inline bool side_breaks(const BondGeometry& g, double r, double weight, double plastic_extension,
+inline bool side_breaks(const BondGeometry& g, double r, double length, double plastic_extension,
                         const SideConstants& c, double scale) {
-  const double length = weighted_length<kAnisotropic>(r, c.horizon, weight);
-  return side_exceeds(g.extension, plastic_extension,
-                      break_limit<kAnisotropic>(c.break_extension, r, length) * scale);
+  return side_exceeds(g.extension, plastic_extension, break_limit<kAnisotropic>(c.break_extension, r, length) * scale);
 }
 
 // Lane-strided visit of a family's bonds [begin, end): chunks of kBondLanes consecutive bonds, bond
@@ -185,29 +226,30 @@ inline T sum_lanes(const T (&lanes)[kBondLanes]) {
   return total;
 }
 
-// The bond arrays (components/bonds.hpp, CSR) and the positions as the raw streams the lane kernels
-// read, unpacked here once for dilatation.cpp, elastic_force.cpp and bond_pass.cpp. Raw pointers, so
-// that a kernel can copy them into its task's locals: a store through a uint8_t* (alive) may alias
-// anything in memory (char aliasing), and pointers the compiler had to read from memory would be
-// reloaded after every such store. kMutable gives writable e^p and alive streams (the bond pass).
-// Shapes: offsets particles + 1; neighbor, reverse, reference_length, weight, plastic,
-// plastic_mirror, alive one entry per directed bond k (CSR: particle i owns [offsets[i],
-// offsets[i+1])); y and x 3 doubles per particle (current and reference positions, x y z).
+// The bond arrays (components/bonds.hpp, CSR) and the per-particle numbers every bond kernel reads,
+// as raw streams, unpacked here once for dilatation.cpp, elastic_force.cpp and bond_pass.cpp. Raw
+// pointers, so that a kernel can copy them into its task's locals: a store through a uint8_t* (alive)
+// may alias anything in memory (char aliasing), and pointers the compiler had to read from memory
+// would be reloaded after every such store. kMutable gives writable e^p and alive streams (the bond
+// pass). Shapes: offsets particles + 1; neighbor, alive, plastic, plastic_mirror, break_scale one
+// entry per directed bond k (CSR: particle i owns [offsets[i], offsets[i+1]); plastic and
+// break_scale null when the world has none); y and x 3 doubles per particle (current and reference
+// positions, x y z); horizon and material_id per particle; materials per material (its anisotropy G).
 template <bool kMutable>
 struct BondStreams {
-  using Real = std::conditional_t<kMutable, double, const double>;
+  using Plastic = std::conditional_t<kMutable, float, const float>;
   using Flag = std::conditional_t<kMutable, std::uint8_t, const std::uint8_t>;
   const std::uint32_t* offsets;
   const std::uint32_t* neighbor;
-  const std::uint32_t* reverse;
-  const double* reference_length;
-  const double* weight;
-  Real* plastic;         // e^p_ij
-  Real* plastic_mirror;  // e^p_ji (Bonds::plastic_extension_mirror)
+  Plastic* plastic;         // e^p_ij
+  Plastic* plastic_mirror;  // e^p_ji (Bonds::plastic_extension_mirror)
   Flag* alive;
   const double* y;
   const double* x;
-  const float* break_scale;  // Bonds::break_scale (null when the world cannot fracture)
+  const float* break_scale;  // Bonds::break_scale (null: 1 for every bond)
+  const double* horizon;     // δ per particle
+  const std::uint16_t* material_id;
+  const scene::Material* materials;
 
   // Particle i's end of its bonds, in component form. A lane then forms its bond's vectors as
   // dy = y[3j + c] − o.y_c and ξ = x[3j + c] − o.x_c in the kernel's own body: returned from a helper
@@ -219,15 +261,25 @@ struct BondStreams {
   Origin origin(std::size_t i) const {
     return {y[3 * i], y[3 * i + 1], y[3 * i + 2], x[3 * i], x[3 * i + 1], x[3 * i + 2]};
   }
+  // G of particle i's material (Eq 17).
+  const Mat3& anisotropy(std::size_t i) const { return materials[material_id[i]].anisotropy; }
 };
-// From Bonds (writable streams) or const Bonds (read-only), positions y and reference positions x.
-template <class BondArrays>
-inline BondStreams<!std::is_const_v<BondArrays>> bond_streams(BondArrays& b, const std::vector<Vec3>& y,
-                                                                const std::vector<Vec3>& x) {
-  static_assert(std::is_same_v<std::remove_const_t<BondArrays>, Bonds>);
-  return {b.offsets.data(), b.neighbor.data(), b.reverse.data(), b.reference_length.data(), b.weight.data(),
-          b.plastic_extension.data(), b.plastic_extension_mirror.data(), b.alive.data(), y.data()->data(),
-          x.data()->data(), b.break_scale.empty() ? nullptr : b.break_scale.data()};
+// From a world (writable streams) or a const world (read-only), with positions y.
+template <class World>
+inline BondStreams<!std::is_const_v<World>> bond_streams(World& w, const std::vector<Vec3>& y) {
+  static_assert(std::is_same_v<std::remove_const_t<World>, WorldState>);
+  auto& b = w.bonds;
+  return {b.offsets.data(),
+          b.neighbor.data(),
+          b.plastic_extension.empty() ? nullptr : b.plastic_extension.data(),
+          b.plastic_extension_mirror.empty() ? nullptr : b.plastic_extension_mirror.data(),
+          b.alive.data(),
+          y.data()->data(),
+          w.particles.reference_position.data()->data(),
+          b.break_scale.empty() ? nullptr : b.break_scale.data(),
+          w.model.horizon.data(),
+          w.particles.material_id.data(),
+          w.settings.materials.data()};
 }
 
 // Runtime model flags to template flags, written once for every bond kernel: calls

@@ -13,30 +13,35 @@ namespace perifx::systems {
 
 void compute_dilatation(const WorldState& w, const std::vector<Vec3>& y_vec, std::vector<double>& theta,
                         std::vector<double>& coupling) {
-  const auto bs = bond_streams(w.bonds, y_vec, w.particles.reference_position);
+  const auto bs = bond_streams(w, y_vec);
   const double* const volume = w.particles.volume.data();
   const auto& md = w.model;
-  parallel_for_each(w.particles.count(), [&](std::size_t i) {
-    const auto o = bs.origin(i);
-    double sum[kBondLanes] = {};
-    // Lane-strided so that the bond loop runs as SIMD with a fixed summation order (bond_rules.hpp).
-    auto lane = [=, &sum](std::size_t k, int l, std::uint64_t is_alive) {
-      const std::size_t j = bs.neighbor[k];
-      const double r = bs.reference_length[k];
-      const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
-      const double dot =
-          dyx * (bs.x[3 * j] - o.xx) + dyy * (bs.x[3 * j + 1] - o.xy) + dyz * (bs.x[3 * j + 2] - o.xz);
-      const double len = std::sqrt(dyx * dyx + dyy * dyy + dyz * dyz);
-      // e·Λ = (|y_j−y_i| − |ξ|) · (y_j−y_i)·ξ / (|y_j−y_i| |ξ|); a collapsed bond has no direction.
-      const double e_lambda = (len - r) * dot / (len * r);
-      const double term = bs.weight[k] * e_lambda * volume[j];
-      sum[l] += (is_alive != 0) & (len > 0.0) ? term : 0.0;
-    };
-    for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
-    const double th = md.dilatation_scale[i] * sum_lanes(sum);
-    theta[i] = th;
-    coupling[i] = (md.a4[i] - md.b4[i] * md.beta[i]) * th;
-  });
+  dispatch_flags([&](auto aniso) {
+    constexpr bool kAnisotropic = decltype(aniso)::value;
+    parallel_for_each(w.particles.count(), [&](std::size_t i) {
+      const auto o = bs.origin(i);
+      const Mat3& g_i = bs.anisotropy(i);
+      double sum[kBondLanes] = {};
+      // Lane-strided so that the bond loop runs as SIMD with a fixed summation order (bond_rules.hpp).
+      // ω e Λ = (δ_i/ℓ)(|y_j−y_i| − |ξ|)(y_j−y_i)·ξ/(|y_j−y_i| |ξ|): δ_i moves out of the sum, and one
+      // division per bond remains. A collapsed bond has no direction.
+      auto lane = [=, &sum, &g_i](std::size_t k, int l, std::uint64_t is_alive) {
+        const std::size_t j = bs.neighbor[k];
+        const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
+        const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
+        const double r = reference_length(dxx, dxy, dxz);
+        const double ell = weighted_length<kAnisotropic>(g_i, r, dxx, dxy, dxz);
+        const double dot = dyx * dxx + dyy * dxy + dyz * dxz;
+        const double len = std::sqrt(dyx * dyx + dyy * dyy + dyz * dyz);
+        const double term = (len - r) * dot * volume[j] / (len * r * ell);
+        sum[l] += (is_alive != 0) & (len > 0.0) ? term : 0.0;
+      };
+      for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
+      const double th = md.dilatation_scale[i] * md.horizon[i] * sum_lanes(sum);
+      theta[i] = th;
+      coupling[i] = (md.a4[i] - md.b4[i] * md.beta[i]) * th;
+    });
+  }, w.any_anisotropic);
 }
 
 SystemDecl dilatation_system(WorldState& w) {

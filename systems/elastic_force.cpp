@@ -2,8 +2,8 @@
 //   f_i = V_i Σ_j ½ (A_ij + A_ji) n_ij V_j,
 //   A_ij = ω_ij (Λ_ij P_i + b4_i (e_ij − e^p_ij)),   P_i = (a4_i − b4_i β_i) θ_i,
 // which is A_dil + A_dev of Eq 4 and Eq 12 (Eq 8 when e^p = 0) with a4 = 4a, b4 = 4b, β = δ/4.
-// e_ji = e_ij and Λ_ji = Λ_ij, so A_ji needs only P_j, b4_j and, with anisotropy or plasticity,
-// the mirror bond's ω_ji and e^p_ji (Bonds::plastic_extension_mirror). Each particle gathers its
+// e_ji = e_ij and Λ_ji = Λ_ij, so A_ji needs only P_j, b4_j, δ_j (ω_ji = δ_j/|G_j ξ|, recomputed
+// like |ξ|: bond_rules.hpp) and, with plasticity, e^p_ji (Bonds::plastic_extension_mirror). Each particle gathers its
 // own sum (no scatter, no atomics): the result is independent of thread count, and pair forces are
 // equal and opposite to round-off. The per-bond rule is paired_force_density (bond_rules.hpp), shared
 // with the fused bond pass and, through side_force_state, with the virial stress below.
@@ -27,10 +27,11 @@ inline void visit_bonds(const WorldState& w, const std::vector<Vec3>& y, const s
   for (std::uint32_t k = b.offsets[i], end = b.offsets[i + 1]; k < end; ++k) {
     if (!b.alive[k]) continue;
     const std::uint32_t j = b.neighbor[k];
-    const Vec3 dy = y[j] - yi;
+    const Vec3 dy = y[j] - yi, dxi = x[j] - xi;
     BondGeometry g;
-    if (!bond_geometry(dy, x[j] - xi, b.reference_length[k], g)) continue;
-    const double a_ij = side_force_state<kPlastic>(g, b.weight[k], b.plastic_extension[k], p_i, b4_i);
+    if (!bond_geometry(dy, dxi, reference_length(dxi), g)) continue;
+    const double ep = kPlastic ? double(b.plastic_extension[k]) : 0.0;
+    const double a_ij = side_force_state<kPlastic>(g, bond_weight(w, i, dxi), ep, p_i, b4_i);
     sink(j, a_ij, g.inverse_length, dy);
   }
 }
@@ -41,7 +42,7 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec,
                             std::vector<Vec3>& force) {
   // Lane-strided (bond_rules.hpp) with the same per-bond density and summation order as the fused
   // bond pass, so the two give the same bits.
-  const auto bs = bond_streams(w.bonds, y_vec, w.particles.reference_position);
+  const auto bs = bond_streams(w, y_vec);
   const double* const volume = w.particles.volume.data();
   const double* const b4 = w.model.b4.data();
   const double* const p = coupling.data();
@@ -50,19 +51,22 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec,
     constexpr bool kAnisotropic = decltype(aniso)::value, kPlastic = decltype(plastic_on)::value;
     parallel_for_each(w.particles.count(), [&](std::size_t i) {
       const auto o = bs.origin(i);
-      const double p_i = p[i], b4_i = b4[i];
+      const double p_i = p[i], b4_i = b4[i], delta_i = bs.horizon[i];
+      const Mat3& g_i = bs.anisotropy(i);
       double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
-      auto lane = [=, &fx, &fy, &fz](std::size_t k, int l, std::uint64_t is_alive) {
+      auto lane = [=, &fx, &fy, &fz, &g_i](std::size_t k, int l, std::uint64_t is_alive) {
         const std::size_t j = bs.neighbor[k];
         const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
         const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
+        const double r = reference_length(dxx, dxy, dxz);
         BondGeometry g;
-        const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, bs.reference_length[k], g) & (is_alive != 0);
-        const double w_ij = bs.weight[k];
-        const double w_ji = kAnisotropic ? bs.weight[bs.reverse[k]] : w_ij;
-        const double ep_ij = kPlastic ? bs.plastic[k] : 0.0, ep_ji = kPlastic ? bs.plastic_mirror[k] : 0.0;
-        const double density =
-            paired_force_density<kPlastic>(g, w_ij, w_ji, ep_ij, ep_ji, p_i, b4_i, p[j], b4[j], volume[j]);
+        const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (is_alive != 0);
+        const double w_ij = force_weight<kAnisotropic>(delta_i, weighted_length<kAnisotropic>(g_i, r, dxx, dxy, dxz));
+        const double w_ji =
+            force_weight<kAnisotropic>(bs.horizon[j], weighted_length<kAnisotropic>(bs.anisotropy(j), r, dxx, dxy, dxz));
+        const double ep_ij = kPlastic ? double(bs.plastic[k]) : 0.0, ep_ji = kPlastic ? double(bs.plastic_mirror[k]) : 0.0;
+        const double density = paired_force_density<kAnisotropic, kPlastic>(g, w_ij, w_ji, ep_ij, ep_ji, p_i, b4_i, p[j],
+                                                                            b4[j], volume[j]);
         const double c = active ? density : 0.0;
         fx[l] += c * dyx;
         fy[l] += c * dyy;
@@ -116,8 +120,10 @@ double elastic_energy(const WorldState& w) {
     for (std::uint32_t q = b.offsets[i]; q < b.offsets[i + 1]; ++q) {
       if (!b.alive[q]) continue;
       const std::uint32_t j = b.neighbor[q];
-      const double e = (p.position[j] - p.position[i]).norm() - b.reference_length[q] - b.plastic_extension[q];
-      bond_sum += b.weight[q] * e * e * p.volume[j];
+      const Vec3 xi = p.reference_position[j] - p.reference_position[i];
+      const double ep = w.any_plastic ? double(b.plastic_extension[q]) : 0.0;
+      const double e = (p.position[j] - p.position[i]).norm() - reference_length(xi) - ep;
+      bond_sum += bond_weight(w, i, xi) * e * e * p.volume[j];
     }
     const double th = w.state.dilatation[i];
     return p.volume[i] * (k * th * th + bb * bond_sum);

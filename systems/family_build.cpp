@@ -1,8 +1,8 @@
 // Family build (setup, paper §5.2 and systems/README.md §6.2).
 // Reads:  particles.reference_position, particles.body_id, particles.material_id, model.horizon,
 //         the embedded mesh's face adjacency (mesh rule), scene materials (G, Eq 17).
-// Writes: bonds (offsets, neighbor, reverse, reference_length, weight, alive, plastic_extension(_mirror),
-//         initial_count).
+// Writes: bonds (offsets, neighbor, alive, plastic_extension(_mirror), initial_count). |ξ| and ω are
+//         not stored; the kernels recompute them (bond_rules.hpp).
 //
 // Mesh rule (default): j is in i's family when |x_j − x_i| ≤ δ and j is reachable from i through
 // face-adjacent tets whose barycenters all lie within δ of x_i, so bonds never jump a thin gap.
@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "spatial_grid.hpp"
 #include "systems.hpp"
@@ -112,32 +113,23 @@ void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>
   for (std::size_t i = 0; i < n; ++i) b.offsets[i + 1] = b.offsets[i] + static_cast<std::uint32_t>(lists[i].size());
   const std::size_t m = b.offsets[n];
   b.neighbor.resize(m);
-  b.reverse.resize(m);
-  b.reference_length.resize(m);
-  b.weight.resize(m);
   b.alive.assign(m, 1);
-  b.plastic_extension.assign(m, 0.0);
-  b.plastic_extension_mirror.assign(m, 0.0);
+  // e^p only where something can yield (components/bonds.hpp); the step's kernels skip it otherwise.
+  b.plastic_extension.assign(w.any_plastic ? m : 0, 0.0f);
+  b.plastic_extension_mirror.assign(w.any_plastic ? m : 0, 0.0f);
   b.initial_count.resize(n);
   parallel_for_each(n, [&](std::size_t i) {
-    const Mat3& G = w.settings.materials[w.particles.material_id[i]].anisotropy;
-    const bool isotropic = G == Mat3::Identity();
-    const double delta = w.model.horizon[i];
     b.initial_count[i] = static_cast<std::uint32_t>(lists[i].size());
-    std::uint32_t k = b.offsets[i];
-    for (std::uint32_t j : lists[i]) {
-      const Vec3 xi = x[j] - x[i];
-      const double r = xi.norm();
-      b.neighbor[k] = j;
-      b.reference_length[k] = r;
-      // Eq 5 (isotropic) and Eq 17 (ω = δ/|Gξ|); G = I takes the isotropic path so it is bit-identical.
-      b.weight[k] = isotropic ? delta / r : delta / (G * xi).norm();
-      const auto& lj = lists[j];
-      b.reverse[k] = b.offsets[j] + static_cast<std::uint32_t>(
-                                        std::lower_bound(lj.begin(), lj.end(), static_cast<std::uint32_t>(i)) - lj.begin());
-      ++k;
-    }
+    std::copy(lists[i].begin(), lists[i].end(), b.neighbor.begin() + b.offsets[i]);
   }, 256);
+}
+
+std::vector<std::uint32_t> mirror_bonds(const Bonds& b) {
+  std::vector<std::uint32_t> mirror(b.count());
+  parallel_for_each(b.particle_count(), [&](std::size_t i) {
+    for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) mirror[k] = mirror_bond(b, i, k);
+  }, 256);
+  return mirror;
 }
 
 }  // namespace perifx::systems

@@ -24,16 +24,19 @@ bool breaks(const WorldState& w, const std::vector<Vec3>& y, std::uint32_t i, st
   const Bonds& b = w.bonds;
   const auto& x = w.particles.reference_position;
   const std::uint32_t j = b.neighbor[k];
-  const double r = b.reference_length[k];
+  const Vec3 dxi = x[j] - x[i];
+  const double r = reference_length(dxi);
   BondGeometry g;
-  if (!bond_geometry(y[j] - y[i], x[j] - x[i], r, g) || !(g.extension > 0.0)) return false;
-  const double w_ij = b.weight[k];
-  const double w_ji = kAnisotropic ? b.weight[b.reverse[k]] : w_ij;
-  const double ep_ij = w.any_plastic ? b.plastic_extension[k] : 0.0;
-  const double ep_ji = w.any_plastic ? b.plastic_extension_mirror[k] : 0.0;
+  if (!bond_geometry(y[j] - y[i], dxi, r, g) || !(g.extension > 0.0)) return false;
+  const auto& materials = w.settings.materials;
+  const auto& material_id = w.particles.material_id;
+  const double l_ij = weighted_length<kAnisotropic>(materials[material_id[i]].anisotropy, r, dxi.x(), dxi.y(), dxi.z());
+  const double l_ji = weighted_length<kAnisotropic>(materials[material_id[j]].anisotropy, r, dxi.x(), dxi.y(), dxi.z());
+  const double ep_ij = w.any_plastic ? double(b.plastic_extension[k]) : 0.0;
+  const double ep_ji = w.any_plastic ? double(b.plastic_extension_mirror[k]) : 0.0;
   const double scale = b.break_scale.empty() ? 1.0 : double(b.break_scale[k]);
-  return side_breaks<kAnisotropic>(g, r, w_ij, ep_ij, side_constants(w.model, w.state, i), scale) ||
-         side_breaks<kAnisotropic>(g, r, w_ji, ep_ji, side_constants(w.model, w.state, j), scale);
+  return side_breaks<kAnisotropic>(g, r, l_ij, ep_ij, side_constants(w.model, w.state, i), scale) ||
+         side_breaks<kAnisotropic>(g, r, l_ji, ep_ji, side_constants(w.model, w.state, j), scale);
 }
 
 }  // namespace

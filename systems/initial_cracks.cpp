@@ -8,10 +8,11 @@
 // projected onto the polygon's dominant plane, lies inside the polygon (even–odd rule, so
 // non-convex polygons work). The test is evaluated for the pair (lower, higher index), so a bond
 // and its mirror are always removed together.
-// Reads/writes: bonds (all arrays rebuilt in CSR order: offsets, neighbor, reverse,
-// reference_length, weight, alive, plastic_extension, initial_count).
+// Reads/writes: bonds (all arrays rebuilt in CSR order: offsets, neighbor, alive,
+// plastic_extension(_mirror), initial_count).
 #include <cmath>
 
+#include "bond_rules.hpp"
 #include "planar_polygon.hpp"
 #include "systems.hpp"
 
@@ -31,31 +32,27 @@ std::size_t remove_cracked_bonds(WorldState& w, const std::vector<scene::Crack>&
       if (j < i) continue;  // decided with the lower index first, copied to the mirror below
       for (const auto& poly : polys)
         if (crosses(poly, x[i], x[j])) {
-          keep[k] = keep[b.reverse[k]] = 0;
+          keep[k] = keep[mirror_bond(b, i, k)] = 0;
           break;
         }
     }
-  std::vector<std::uint32_t> new_index(b.count(), 0);
+  const bool plastic = !b.plastic_extension.empty();
   Bonds out;
   out.offsets.assign(n + 1, 0);
   out.initial_count.assign(n, 0);
   for (std::uint32_t i = 0; i < n; ++i) {
     for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
       if (!keep[k]) continue;
-      new_index[k] = static_cast<std::uint32_t>(out.neighbor.size());
       out.neighbor.push_back(b.neighbor[k]);
-      out.reference_length.push_back(b.reference_length[k]);
-      out.weight.push_back(b.weight[k]);
       out.alive.push_back(b.alive[k]);
+      if (!plastic) continue;
       out.plastic_extension.push_back(b.plastic_extension[k]);
       out.plastic_extension_mirror.push_back(b.plastic_extension_mirror[k]);
     }
     out.offsets[i + 1] = static_cast<std::uint32_t>(out.neighbor.size());
     out.initial_count[i] = out.offsets[i + 1] - out.offsets[i];
   }
-  out.reverse.resize(out.neighbor.size());
-  for (std::size_t k = 0; k < b.count(); ++k)
-    if (keep[k]) out.reverse[new_index[k]] = new_index[b.reverse[k]];
+  out.break_scale = {};  // weak planes are applied after the cracks (systems.hpp order)
   const std::size_t removed = b.count() - out.count();
   b = std::move(out);
   return removed;

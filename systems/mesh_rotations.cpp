@@ -27,6 +27,7 @@
 // Reads:  position, bond_alive, damage (broken_bonds), mesh.   Writes: mesh (held_deformation, held_tracked).
 #include <algorithm>
 
+#include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
 
@@ -60,7 +61,7 @@ std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, M
     if (alive_only && !b.alive[k]) continue;
     const std::uint32_t j = b.neighbor[k];
     const Vec3 xi = x[j] - x[p];
-    const Vec3 wxi = (b.weight[k] * vol[j]) * xi;
+    const Vec3 wxi = (bond_weight(w, p, xi) * vol[j]) * xi;
     K += wxi * xi.transpose();
     N += (y[j] - y[p]) * wxi.transpose();
     ++n;

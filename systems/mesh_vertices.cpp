@@ -40,6 +40,7 @@
 // Writes: mesh (F, Ḟ, vertex positions and velocities: derived, not state, in the deformation mode).
 #include <algorithm>
 
+#include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
 #include "union_find.hpp"
@@ -68,7 +69,7 @@ void particle_deformation(WorldState& w, std::size_t p) {
     if (!b.alive[k]) continue;
     const std::uint32_t j = b.neighbor[k];
     const Vec3 xi = x[j] - x[p];
-    const Vec3 wxi = (b.weight[k] * vol[j]) * xi;
+    const Vec3 wxi = (bond_weight(w, p, xi) * vol[j]) * xi;
     K += wxi * xi.transpose();
     N += (y[j] - y[p]) * wxi.transpose();
     Nd += (vel[j] - vel[p]) * wxi.transpose();

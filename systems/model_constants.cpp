@@ -17,7 +17,7 @@
 //   σ_y → A_c = √(2Ψ0) = σ_y / S_i,  S_i = ½ Σ_j |3 c_a² − 1|/2 |ξ| V_j (mean over axes a, c_a = ξ_a/|ξ|)
 //         (flow stress of the per-bond return under sustained uniaxial plastic flow; §12.2); in the
 //         continuum S = πδ⁴/(3√3) and, with the paper's b, Y = A_c/(b4 δ) = √3 σ_y/(10 μ).
-// Reads:  bonds (weight, reference_length, neighbor), particles.volume, particles.material_id,
+// Reads:  bonds (neighbor; |ξ| and ω recomputed, bond_rules.hpp), particles.volume, particles.material_id,
 //         model.horizon, scene materials.
 // Writes: model.dilatation_scale, model.a4, model.b4, model.beta, model.damping and the material's
 //         inelastic constants per particle (yield_extension = √(2Ψ0)/(b4 δ), plastic_cap, critical_stretch,
@@ -26,6 +26,7 @@
 #include <cmath>
 #include <vector>
 
+#include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
 
@@ -69,8 +70,9 @@ void compute_model_constants(WorldState& w) {
     parallel_for_each(n, [&](std::size_t i) {
       double m = 0.0;
       for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) {
-        const double r = w.bonds.reference_length[k];
-        m += w.bonds.weight[k] * r * w.particles.volume[w.bonds.neighbor[k]];
+        const std::uint32_t j = w.bonds.neighbor[k];
+        const Vec3 xi = w.particles.reference_position[j] - w.particles.reference_position[i];
+        m += bond_weight(w, i, xi) * reference_length(xi) * w.particles.volume[j];
       }
       m_i[i] = m;
     });
@@ -90,8 +92,9 @@ void compute_model_constants(WorldState& w) {
       const Vec3& xi = w.particles.reference_position[i];
       for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) {
         const std::uint32_t j = w.bonds.neighbor[k];
-        const double r = w.bonds.reference_length[k];
-        const double wv = w.bonds.weight[k] * r * w.particles.volume[j];
+        const Vec3 bond = w.particles.reference_position[j] - xi;
+        const double r = reference_length(bond);
+        const double wv = bond_weight(w, i, bond) * r * w.particles.volume[j];
         m += wv;
         q += wv * r;
         const Vec3 s2 = (w.particles.reference_position[j] - xi).cwiseAbs2();
@@ -130,7 +133,7 @@ void compute_model_constants(WorldState& w) {
       const Vec3& xi = w.particles.reference_position[i];
       for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) {
         const std::uint32_t j = w.bonds.neighbor[k];
-        const double r = w.bonds.reference_length[k];
+        const double r = reference_length(w.particles.reference_position[j] - xi);
         const Vec3 c2 = (w.particles.reference_position[j] - xi).cwiseAbs2() / (r * r);
         flow_sum += (std::abs(3.0 * c2.x() - 1.0) + std::abs(3.0 * c2.y() - 1.0) + std::abs(3.0 * c2.z() - 1.0)) *
                     r * w.particles.volume[j];

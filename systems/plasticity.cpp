@@ -27,19 +27,22 @@ void plastic_pass(WorldState& w, const std::vector<Vec3>& y) {
   parallel_for_each(w.particles.count(), [&](std::size_t i) {
     const Vec3 yi = y[i], xi = x[i];
     const SideConstants side_i = side_constants(w.model, w.state, i);
+    const Mat3& g_i = w.settings.materials[w.particles.material_id[i]].anisotropy;
     for (std::uint32_t k = b.offsets[i], end = b.offsets[i + 1]; k < end; ++k) {
       if (!b.alive[k]) continue;
       const std::uint32_t j = b.neighbor[k];
-      const double r = b.reference_length[k];
+      const Vec3 dxi = x[j] - xi;
+      const double r = reference_length(dxi);
       BondGeometry g;
-      if (!bond_geometry(y[j] - yi, x[j] - xi, r, g)) continue;
-      const double w_ij = b.weight[k];
-      const double w_ji = kAnisotropic ? b.weight[b.reverse[k]] : w_ij;
+      if (!bond_geometry(y[j] - yi, dxi, r, g)) continue;
+      const Mat3& g_j = w.settings.materials[w.particles.material_id[j]].anisotropy;
+      const double l_ij = weighted_length<kAnisotropic>(g_i, r, dxi.x(), dxi.y(), dxi.z());
+      const double l_ji = weighted_length<kAnisotropic>(g_j, r, dxi.x(), dxi.y(), dxi.z());
       const SideConstants side_j = side_constants(w.model, w.state, j);
-      const double ep_ij = side_plastic_extension<kAnisotropic>(g, r, w_ij, b.plastic_extension[k], side_i);
-      const double ep_ji = side_plastic_extension<kAnisotropic>(g, r, w_ji, b.plastic_extension_mirror[k], side_j);
-      b.plastic_extension[k] = ep_ij;
-      b.plastic_extension_mirror[k] = ep_ji;
+      // Stored as float (components/bonds.hpp); both ends round the same double.
+      b.plastic_extension[k] = static_cast<float>(side_plastic_extension(g, r, l_ij, b.plastic_extension[k], side_i));
+      b.plastic_extension_mirror[k] =
+          static_cast<float>(side_plastic_extension(g, r, l_ji, b.plastic_extension_mirror[k], side_j));
     }
   }, 256);
 }
@@ -63,14 +66,16 @@ void register_plasticity_fields(FieldRegistry& r) {
                          [](WorldState& w, FieldView& v) {
     const Bonds& b = w.bonds;
     const std::size_t n = w.particles.count();
-    w.derived.plastic_strain.resize(n);
+    w.derived.plastic_strain.assign(n, 0.0);
+    if (b.plastic_extension.empty()) return view_array(v, w.derived.plastic_strain);  // no material yields
     parallel_for_each(n, [&](std::size_t i) {
       std::uint32_t alive = 0;
       double plastic = 0.0;
       for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
         if (!b.alive[k]) continue;
         ++alive;
-        plastic += std::abs(b.plastic_extension[k]) / b.reference_length[k];
+        plastic += std::abs(double(b.plastic_extension[k])) /
+                   reference_length(w.particles.reference_position[b.neighbor[k]] - w.particles.reference_position[i]);
       }
       w.derived.plastic_strain[i] = alive ? plastic / double(alive) : 0.0;
     });

@@ -9,11 +9,12 @@
 // side_breaks). Weak planes use the crossing test of initial cracks (planar_polygon.hpp).
 // Reads:  particles (reference_position, material_id, body_id), bonds (offsets, neighbor, reverse),
 //         scene materials' strength.
-// Writes: model.critical_stretch (scaled), bonds.break_scale (allocated when any_fracture).
+// Writes: model.critical_stretch (scaled), bonds.break_scale (allocated only when a weak plane exists).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 
+#include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "planar_polygon.hpp"
 #include "region.hpp"
@@ -42,11 +43,8 @@ void apply_strength_field(WorldState& w) {
   });
 
   Bonds& b = w.bonds;
-  if (!w.any_fracture) {
-    b.break_scale.clear();
-    return;
-  }
-  b.break_scale.assign(b.count(), 1.0f);
+  b.break_scale.clear();  // empty: 1 for every bond (the bond pass then reads no per-bond factor)
+  if (!w.any_fracture) return;
   // Prepared polygons per material (most materials have none).
   std::vector<std::vector<std::pair<PlanarPolygon, double>>> planes(mats.size());
   bool any = false;
@@ -56,6 +54,7 @@ void apply_strength_field(WorldState& w) {
       any = true;
     }
   if (!any) return;
+  b.break_scale.assign(b.count(), 1.0f);
   const auto& x = p.reference_position;
   parallel_for_each(n, [&](std::size_t i) {  // each pair decided by its lower index, written to both slots
     for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
@@ -65,7 +64,7 @@ void apply_strength_field(WorldState& w) {
       for (const std::uint16_t m : {p.material_id[i], p.material_id[j]})
         for (const auto& [poly, f] : planes[m])
           if (f < factor && crosses(poly, x[i], x[j])) factor = f;
-      if (factor < 1.0) b.break_scale[k] = b.break_scale[b.reverse[k]] = static_cast<float>(factor);
+      if (factor < 1.0) b.break_scale[k] = b.break_scale[mirror_bond(b, i, k)] = static_cast<float>(factor);
     }
   });
 }

@@ -12,6 +12,7 @@
 #include <cmath>
 
 #include "setup/world_setup.hpp"
+#include "systems/bond_rules.hpp"
 #include "systems/parallel.hpp"
 #include "systems/systems.hpp"
 
@@ -27,7 +28,15 @@ class StiffnessOperator {
   explicit StiffnessOperator(const WorldState& w) : w_(w), n_(w.particles.count()), y_(n_), force_(n_), theta_(n_), coupling_(n_) {
     const auto& x = w.particles.reference_position;
     spacing_ = kInfinity;
-    for (double r : w.bonds.reference_length) spacing_ = std::min(spacing_, r);
+    {  // the shortest bond (min is exact in any order, so per-particle minima then their min)
+      const auto& b = w.bonds;
+      std::vector<double> shortest(n_, kInfinity);
+      parallel_for_each(n_, [&](std::size_t i) {
+        for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k)
+          shortest[i] = std::min(shortest[i], systems::reference_length(x[b.neighbor[k]] - x[i]));
+      }, 1024);
+      for (double r : shortest) spacing_ = std::min(spacing_, r);
+    }
     if (w.settings.solver != scene::Solver::peridynamics)
       for (const auto& t : w.mesh.tets)
         for (int a = 0; a < 4; ++a)

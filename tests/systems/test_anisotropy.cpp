@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "systems/bond_rules.hpp"
 #include "support.hpp"
 
 using namespace perifx;
@@ -40,8 +41,8 @@ TEST_CASE("anisotropic material (G = diag(2,1,1)) is stiffer across x than along
     for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) {
       const Vec3 xi = x[w.bonds.neighbor[k]] - x[i];
       const double r = xi.norm(), v = w.particles.volume[w.bonds.neighbor[k]];
-      bond_x += w.bonds.weight[k] * r * r * std::pow(xi.x() / r, 4) * v;
-      bond_y += w.bonds.weight[k] * r * r * std::pow(xi.y() / r, 4) * v;
+      bond_x += systems::bond_weight(w, i, xi) * r * r * std::pow(xi.x() / r, 4) * v;
+      bond_y += systems::bond_weight(w, i, xi) * r * r * std::pow(xi.y() / r, 4) * v;
     }
   }
   const double measured = syy / sxx, implied = bond_y / bond_x;

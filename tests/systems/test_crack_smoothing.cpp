@@ -9,6 +9,7 @@
 #include <map>
 #include <set>
 
+#include "systems/bond_rules.hpp"
 #include "support.hpp"
 #include "tools/crack_stats.hpp"
 
@@ -26,7 +27,7 @@ WorldState& cut_box(World& world, const Vec3& normal, const Vec3& point) {
     for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
       const std::uint32_t j = b.neighbor[k];
       if (b.alive[k] && ((x[i] - point).dot(normal) > 0) != ((x[j] - point).dot(normal) > 0))
-        b.alive[k] = b.alive[b.reverse[k]] = 0;
+        b.alive[k] = b.alive[systems::mirror_bond(b, i, k)] = 0;
     }
   systems::collect_crack_faces(w);
   systems::split_mesh_vertices(w);

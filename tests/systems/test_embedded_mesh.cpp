@@ -14,6 +14,7 @@
 #include <set>
 #include <sstream>
 
+#include "systems/bond_rules.hpp"
 #include "geometry/geometry.hpp"
 #include "io/io.hpp"
 #include "support.hpp"
@@ -32,7 +33,7 @@ std::size_t break_bonds(WorldState& w, Cut&& cut) {
   Bonds& b = w.bonds;
   for (std::uint32_t i = 0; i < b.particle_count(); ++i)
     for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k)
-      if (b.alive[k] && cut(i, b.neighbor[k])) b.alive[k] = b.alive[b.reverse[k]] = 0, ++n;
+      if (b.alive[k] && cut(i, b.neighbor[k])) b.alive[k] = b.alive[systems::mirror_bond(b, i, k)] = 0, ++n;
   return n;
 }
 

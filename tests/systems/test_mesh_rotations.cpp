@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "systems/bond_rules.hpp"
 #include "perifx/scene.hpp"
 #include "support.hpp"
 
@@ -39,7 +40,7 @@ std::size_t held_with_bonds(const WorldState& w) {
     for (std::uint32_t k = b.offsets[p]; k < b.offsets[p + 1]; ++k) {
       if (!b.alive[k]) continue;
       const Vec3 xi = x[b.neighbor[k]] - x[p];
-      K += (b.weight[k] * w.particles.volume[b.neighbor[k]]) * xi * xi.transpose();
+      K += (systems::bond_weight(w, p, xi) * w.particles.volume[b.neighbor[k]]) * xi * xi.transpose();
       ++alive;
     }
     n += alive > 0 && !systems::family_fits(K, alive);
@@ -92,7 +93,7 @@ TEST_CASE("held rotations: a particle with one bond left turns with it; with non
   const std::uint32_t k0 = b.offsets[0], q = b.neighbor[k0];
   for (std::uint32_t i = 0; i < n; ++i)
     for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k)
-      if (k != k0 && k != b.reverse[k0]) b.alive[k] = 0;
+      if (k != k0 && k != systems::mirror_bond(b, 0, k0)) b.alive[k] = 0;
   // Rotate the body rigidly by R: the first tracked step takes the whole family's rotation.
   const Mat3 R = Eigen::AngleAxisd(0.5, Vec3(1, 2, 3).normalized()).toRotationMatrix();
   for (std::size_t i = 0; i < n; ++i) w.particles.position[i] = R * x[i];
