@@ -59,6 +59,7 @@ struct RunSummary {
   std::uint64_t last_frame = 0;       // the last frame written
   bool interrupted = false;           // stopped by stop_requested before the last frame
   std::vector<SystemTime> system_times;  // RunOptions::profile: per system of the step, this session
+  std::vector<SystemTime> setup_times;   // RunOptions::profile: the world's set-up phases (World::setup_times)
 };
 
 // The profile of a run as a text table: one row per system (wall seconds, ms per step, share of the

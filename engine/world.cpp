@@ -1,5 +1,6 @@
 #include "perifx/world.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -25,6 +26,7 @@ struct World::Impl {
   std::vector<std::uint64_t> computed_at = std::vector<std::uint64_t>(fields.size(), kStale);
   std::vector<FieldView> computed = std::vector<FieldView>(fields.size());  // derived fields' last views
   double stable_dt = 0.0;
+  std::vector<setup::PhaseTime> setup_times;  // construction phases, then the stable-step estimate
 
   ~Impl() { scheduler.reset(); }  // the graph's nodes reference the state; tear them down first
 };
@@ -34,7 +36,7 @@ World World::from_file(const std::filesystem::path& scene_file) { return World(s
 World::World(const scene::Scene& scene) : impl_(std::make_unique<Impl>()) {
   impl_->scene = scene;
   impl_->scheduler = std::make_unique<Scheduler>(scene.threads);
-  impl_->state = setup::build_world_state(scene, *impl_->scheduler);
+  impl_->state = setup::build_world_state(scene, *impl_->scheduler, &impl_->setup_times);
   for (auto& system : systems::step_pipeline(*impl_->state)) impl_->scheduler->add(std::move(system));
   impl_->scheduler->build();
 }
@@ -106,13 +108,31 @@ double World::stable_time_step() const {
   if (impl_->stable_dt == 0.0) {
     // A world whose stiffness matrix cannot be analysed (overflowing constants) has no stable step:
     // NaN, which every "dt <= limit" test refuses.
+    const auto start = std::chrono::steady_clock::now();
     try {
       impl_->scheduler->execute([&] { impl_->stable_dt = setup::estimate_stable_time_step(*impl_->state); });
     } catch (const std::runtime_error&) {
       impl_->stable_dt = std::numeric_limits<double>::quiet_NaN();
     }
+    impl_->setup_times.push_back(
+        {"stable time step", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()});
   }
   return impl_->stable_dt;
+}
+
+double World::stable_time_step_bound() const {
+  const auto start = std::chrono::steady_clock::now();
+  double bound = 0.0;
+  impl_->scheduler->execute([&] { bound = setup::stable_time_step_bound(*impl_->state); });
+  impl_->setup_times.push_back(
+      {"stable time step bound", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()});
+  return bound;
+}
+
+std::vector<SystemTime> World::setup_times() const {
+  std::vector<SystemTime> out;
+  for (const auto& t : impl_->setup_times) out.push_back({t.name, t.seconds, 1});
+  return out;
 }
 
 MemoryUse World::memory() const {

@@ -15,6 +15,7 @@
 #include <cmath>
 
 #include "bond_rules.hpp"
+#include "huge_pages.hpp"
 #include "parallel.hpp"
 #include "spatial_grid.hpp"
 #include "systems.hpp"
@@ -88,39 +89,58 @@ Lists families_by_distance(const WorldState& w) {
   return lists;
 }
 
-// Adds the mirror of every one-sided pair, so i ∈ F(j) ⇔ j ∈ F(i).
-void symmetrize(Lists& lists) {
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> missing;  // (owner, member to add)
-  for (std::size_t i = 0; i < lists.size(); ++i)
-    for (std::uint32_t j : lists[i])
-      if (!std::binary_search(lists[j].begin(), lists[j].end(), static_cast<std::uint32_t>(i)))
-        missing.emplace_back(j, static_cast<std::uint32_t>(i));
-  for (auto [owner, member] : missing) lists[owner].push_back(member);
-  for (auto [owner, member] : missing) std::sort(lists[owner].begin(), lists[owner].end());
-}
-
 }  // namespace
 
 void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>>& tet_face_neighbors) {
   const auto& x = w.particles.reference_position;
   const std::size_t n = x.size();
-  Lists lists = w.settings.family == scene::FamilyRule::mesh ? families_by_mesh(w, tet_face_neighbors)
-                                                          : families_by_distance(w);
-  symmetrize(lists);
+  const Lists lists = w.settings.family == scene::FamilyRule::mesh ? families_by_mesh(w, tet_face_neighbors)
+                                                                : families_by_distance(w);
+  // A bond is one physical link: i–j is bonded when either found the other. The union of each list
+  // with its transpose T_i = {k : i ∈ L_k}: T is filled in particle order, so every T_i comes out
+  // sorted, and the per-particle merges run in parallel. Deterministic for any thread count.
+  std::vector<std::uint32_t> t_offsets(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::uint32_t j : lists[i]) ++t_offsets[j + 1];
+  for (std::size_t i = 0; i < n; ++i) t_offsets[i + 1] += t_offsets[i];
+  std::vector<std::uint32_t> transpose(t_offsets[n]);
+  {
+    std::vector<std::uint32_t> fill(t_offsets.begin(), t_offsets.end() - 1);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::uint32_t j : lists[i]) transpose[fill[j]++] = static_cast<std::uint32_t>(i);
+  }
+  // Visits the sorted union of L_i and T_i.
+  auto for_each_member = [&](std::size_t i, auto&& visit) {
+    auto a = lists[i].begin(), a_end = lists[i].end();
+    auto t = transpose.begin() + t_offsets[i], t_end = transpose.begin() + t_offsets[i + 1];
+    while (a != a_end || t != t_end) {
+      std::uint32_t next;
+      if (t == t_end || (a != a_end && *a < *t)) next = *a++;
+      else if (a == a_end || *t < *a) next = *t++;
+      else next = *a++, ++t;  // in both
+      visit(next);
+    }
+  };
 
   Bonds& b = w.bonds;
   b.offsets.assign(n + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) b.offsets[i + 1] = b.offsets[i] + static_cast<std::uint32_t>(lists[i].size());
-  const std::size_t m = b.offsets[n];
-  b.neighbor.resize(m);
-  b.alive.assign(m, 1);
-  // e^p only where something can yield (components/bonds.hpp); the step's kernels skip it otherwise.
-  b.plastic_extension.assign(w.any_plastic ? m : 0, 0.0f);
-  b.plastic_extension_mirror.assign(w.any_plastic ? m : 0, 0.0f);
   b.initial_count.resize(n);
   parallel_for_each(n, [&](std::size_t i) {
-    b.initial_count[i] = static_cast<std::uint32_t>(lists[i].size());
-    std::copy(lists[i].begin(), lists[i].end(), b.neighbor.begin() + b.offsets[i]);
+    std::uint32_t count = 0;
+    for_each_member(i, [&](std::uint32_t) { ++count; });
+    b.initial_count[i] = count;
+  }, 256);
+  for (std::size_t i = 0; i < n; ++i) b.offsets[i + 1] = b.offsets[i] + b.initial_count[i];
+  const std::size_t m = b.offsets[n];
+  // The bond arrays are the largest the world holds: backed by huge pages (huge_pages.hpp).
+  assign_huge_pages(b.neighbor, m, std::uint32_t{0});
+  assign_huge_pages(b.alive, m, std::uint8_t{1});
+  // e^p only where something can yield (components/bonds.hpp); the step's kernels skip it otherwise.
+  assign_huge_pages(b.plastic_extension, w.any_plastic ? m : 0, 0.0f);
+  assign_huge_pages(b.plastic_extension_mirror, w.any_plastic ? m : 0, 0.0f);
+  parallel_for_each(n, [&](std::size_t i) {
+    std::uint32_t k = b.offsets[i];
+    for_each_member(i, [&](std::uint32_t j) { b.neighbor[k++] = j; });
   }, 256);
 }
 

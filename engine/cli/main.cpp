@@ -252,11 +252,19 @@ int cmd_check(const Args& a) {
   return kOk;
 }
 
-// Prints the stable-step verdict; returns false when dt is above the limit.
+// Prints the stable-step verdict; returns false when dt is above the limit. A time step at or below
+// the cheap lower bound (World::stable_time_step_bound) needs no eigenvalue estimate.
 bool report_time_step(const perifx::World& world, std::ostream& out) {
-  const double stable = world.stable_time_step();
   const double dt = world.dt();
   char buf[256];
+  const double bound = world.stable_time_step_bound();
+  if (bound > 0.0 && dt <= bound) {
+    std::snprintf(buf, sizeof buf, "time step        %.3g s (stable: %.0f%% of %.3g s, a lower bound on the limit)\n", dt,
+                  100.0 * dt / bound, bound);
+    out << buf;
+    return true;
+  }
+  const double stable = world.stable_time_step();
   std::snprintf(buf, sizeof buf, "time step        %.3g s (stable limit %.3g s, %.0f%% of it)\n", dt, stable,
                 100.0 * dt / stable);
   out << buf;
@@ -298,6 +306,16 @@ int cmd_info(const Args& a) {
   std::cout << "\n";
   std::cout << "threads          " << world.threads() << "\n";
   const bool ok = report_time_step(world, std::cout);
+  {  // where the set-up time went (the stable-step estimate included)
+    double total = 0.0;
+    std::ostringstream phases;
+    phases.precision(3);
+    for (const auto& t : world.setup_times()) phases << (total > 0.0 || phases.tellp() > 0 ? ", " : "") << t.name << " " << t.seconds << " s", total += t.seconds;
+    std::ostringstream head;
+    head.precision(3);
+    head << "set-up           " << total << " s (" << phases.str() << ")\n";
+    std::cout << head.str();
+  }
   std::cout << "schedule\n" << world.schedule();
   return ok ? kOk : kUnstable;
 }

@@ -44,8 +44,22 @@ double primitive_tets(const scene::Body& body) {
   }
 }
 
-double per_particle_bytes(double bonds_per_particle) {
-  return bonds_per_particle * kBytesPerBond + kBytesPerParticle + kBytesPerTet;
+}  // namespace
+
+double bytes_per_bond(const scene::Scene& scene) {
+  bool plastic = false, planes = false;
+  for (const auto& m : scene.materials) {
+    plastic = plastic || std::isfinite(m.yield_energy) || (m.yield_stress > 0.0 && std::isfinite(m.yield_stress));
+    planes = planes || !m.strength.weak_planes.empty();
+  }
+  return kBytesPerBondState + (plastic ? kBytesPerBondPlastic : 0.0) + (planes ? kBytesPerBondScale : 0.0) +
+         (scene.contact.mode != scene::Contact::Mode::off ? kBytesPerBondContact : 0.0);  // an upper bound
+}
+
+namespace {
+
+double per_particle_bytes(double bonds_per_particle, double per_bond) {
+  return bonds_per_particle * per_bond + kBytesPerParticle + kBytesPerTet;
 }
 
 [[noreturn]] void refuse(const scene::Scene& scene, const MemoryEstimate& e, const std::string& how) {
@@ -77,7 +91,7 @@ MemoryEstimate preflight(const scene::Scene& scene, bool enforce) {
   //    particle are at least the ~40 a horizon of 1.45 λ holds in a structured mesh.
   double tets = 0.0;
   for (const auto& body : scene.bodies) tets += primitive_tets(body);
-  const double early = kPeakFactor * tets * per_particle_bytes(40.0);
+  const double early = kPeakFactor * tets * per_particle_bytes(40.0, bytes_per_bond(scene));
   if (limit && early > e.available) {
     e.particles = static_cast<std::size_t>(std::min(tets, 1e18));
     e.bonds = 40.0 * tets;
@@ -98,7 +112,7 @@ MemoryEstimate preflight(const scene::Scene& scene, bool enforce) {
     const double per = fem ? 0.0 : std::min(n - 1.0, 4.0 / 3.0 * kPi * std::pow(horizon, 3) / (volume / n));
     e.particles += static_cast<std::size_t>(n);
     e.bonds += n * per;
-    e.bytes += kPeakFactor * (n * (kBytesPerParticle + per * kBytesPerBond) + double(mesh.tets.size()) * kBytesPerTet);
+    e.bytes += kPeakFactor * (n * (kBytesPerParticle + per * bytes_per_bond(scene)) + double(mesh.tets.size()) * kBytesPerTet);
   }
   e.meshed = true;
   if (limit && e.bytes > e.available) refuse(scene, e, "the meshes are too fine");

@@ -11,10 +11,15 @@
 
 namespace perifx::setup {
 
-// Measured figures (World::memory on the shipped scenes, tests/engine/test_world.cpp): 41 B per
-// directed bond, about 440 B per particle; mesh and embedded mesh about 200 B per tet. Setup holds
-// transient arrays on top (adjacency, Morton keys), hence the peak factor.
-inline constexpr double kBytesPerBond = 41.0;
+// Measured figures (World::memory on the shipped scenes, tests/engine/test_world.cpp): per directed
+// bond 5 B (neighbour, alive flag), 8 B more when some material can yield (e^p and its mirror, float),
+// 4 B more when a weak plane cuts bonds, 1 B more in the contact list when particle contact is on
+// (bytes_per_bond); about 440 B per particle; mesh and embedded mesh about 200 B per tet. Setup holds
+// transient arrays on top (adjacency, Morton keys, the family lists), hence the peak factor.
+inline constexpr double kBytesPerBondState = 5.0;
+inline constexpr double kBytesPerBondPlastic = 8.0;
+inline constexpr double kBytesPerBondScale = 4.0;
+inline constexpr double kBytesPerBondContact = 1.0;
 inline constexpr double kBytesPerParticle = 440.0;
 inline constexpr double kBytesPerTet = 200.0;
 inline constexpr double kPeakFactor = 1.25;
@@ -39,5 +44,7 @@ class MemoryError : public Error {
 MemoryEstimate preflight(const scene::Scene& scene, bool enforce);
 
 std::string format_bytes(double bytes);  // "1.2 GiB"
+// Bytes per directed bond the world will hold for this scene (see the figures above).
+double bytes_per_bond(const scene::Scene& scene);
 
 }  // namespace perifx::setup

@@ -8,6 +8,7 @@
 // The step's systems themselves are listed in systems/pipeline.cpp.
 #pragma once
 #include <memory>
+#include <vector>
 
 #include "components/world_state.hpp"
 #include "perifx/scene.hpp"
@@ -15,8 +16,16 @@
 
 namespace perifx::setup {
 
-// The whole world for `scene`; setup work runs in the scheduler's arena.
-std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Scheduler& scheduler);
+// Wall time of one setup phase (World::setup_times, `perifx run --profile`).
+struct PhaseTime {
+  const char* name;
+  double seconds;
+};
+
+// The whole world for `scene`; setup work runs in the scheduler's arena. Appends the wall time of
+// each phase to `times` when given.
+std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Scheduler& scheduler,
+                                              std::vector<PhaseTime>* times = nullptr);
 
 // bodies.cpp: bodies, particles and their mesh (appends to w.particles, w.mesh, w.bodies, w.model.horizon).
 void add_bodies(const scene::Scene& scene, WorldState& w);
@@ -34,5 +43,8 @@ void resolve_loads(const std::vector<scene::Load>& loads, WorldState& w);
 // stable_time_step.cpp: largest stable velocity-Verlet step 2/ω_max, ω_max² the largest eigenvalue
 // of M⁻¹K for the linearized elastic force at the reference configuration.
 double estimate_stable_time_step(const WorldState& world);
+// stable_time_step.cpp: a lower bound on that step from one pass over the bonds (peridynamics; 0 for
+// the FEM solver, which has none): a time step at or below it is stable without the estimate.
+double stable_time_step_bound(const WorldState& world);
 
 }  // namespace perifx::setup

@@ -9,6 +9,7 @@ extern "C" std::size_t __sanitizer_get_current_allocated_bytes();
 
 #include <cstring>
 
+#include "setup/preflight.hpp"
 #include "support.hpp"
 
 using namespace perifx;
@@ -99,4 +100,49 @@ TEST_CASE("memory(): the bytes reported are the bytes the world's arrays hold on
   REQUIRE(held > 1e7);  // large enough that allocator overhead is far below 1%
   CHECK(double(m.total_bytes) == doctest::Approx(held).epsilon(0.01));
   CHECK(m.total_bytes == m.particle_bytes + m.bond_bytes + m.mesh_bytes + m.contact_bytes + m.other_bytes);
+}
+
+TEST_CASE("memory(): a directed bond holds 5 bytes, 13 with plasticity (issue 16: at most 16)") {
+  // What the step keeps per bond (components/bonds.hpp): neighbour 4 B and alive flag 1 B; e^p and
+  // its mirror as float (2 × 4 B) only when a material can yield. |ξ| and ω are recomputed.
+  auto sc = test::box_scene(Vec3(0.2, 0.1, 0.1), 0.02, 2e6, 1e6);
+  sc.materials[0].critical_stretch = 0.01;
+  const World brittle(sc);
+  CHECK(brittle.memory().bytes_per_bond == doctest::Approx(5.0).epsilon(1e-9));
+  CHECK(setup::bytes_per_bond(sc) == 6.0);  // the preflight estimate, with the contact list's byte
+  sc.materials[0].yield_energy = 1.0;
+  const World plastic(sc);
+  CHECK(plastic.memory().bytes_per_bond == doctest::Approx(13.0).epsilon(1e-9));
+  CHECK(setup::bytes_per_bond(sc) == 14.0);
+}
+
+TEST_CASE("stable_time_step_bound(): a lower bound on the Lanczos estimate, within a factor 3 of it") {
+  // The bound (engine/setup/stable_time_step.cpp) must never exceed the stable step, or `perifx run`
+  // would accept a time step that blows up: checked against the eigenvalue estimate on structured and
+  // jittered meshes, every normalization, ν from 0.1 to 0.4 and an anisotropic material. And it must
+  // not be so loose that ordinary scenes (dt at 30–50 % of the limit) fall back to the estimate.
+  struct Case {
+    const char* what;
+    scene::Normalization normalization;
+    double nu, jitter;
+    bool anisotropic;
+  };
+  for (const Case c : {Case{"paper, nu 0.25", scene::Normalization::paper, 0.25, 0.0, false},
+                       Case{"paper, nu 0.1, jittered", scene::Normalization::paper, 0.1, 0.3, false},
+                       Case{"discrete, nu 0.4", scene::Normalization::discrete, 0.4, 0.0, false},
+                       Case{"corrected, nu 0.25, jittered", scene::Normalization::corrected, 0.25, 0.3, false},
+                       Case{"paper, anisotropic", scene::Normalization::paper, 0.25, 0.0, true}}) {
+    CAPTURE(c.what);
+    const double e = 1e7, mu = e / (2 * (1 + c.nu)), kappa = e / (3 * (1 - 2 * c.nu));
+    auto sc = test::box_scene(Vec3(0.12, 0.06, 0.04), 0.01, kappa, mu);
+    sc.normalization = c.normalization;
+    sc.bodies[0].geometry.jitter = c.jitter;
+    if (c.anisotropic) sc.materials[0].anisotropy = Vec3(1.0, 0.5, 0.5).asDiagonal();
+    const World w(sc);
+    const double bound = w.stable_time_step_bound(), estimate = w.stable_time_step();
+    MESSAGE(std::string(c.what) << ": bound " << bound << " s, estimate " << estimate << " s, ratio " << bound / estimate);
+    CHECK(bound > 0.0);
+    CHECK(bound <= estimate);
+    CHECK(bound >= estimate / 3.0);
+  }
 }

@@ -111,6 +111,10 @@ class World {
   // The largest stable explicit step of this world's elastic model (the largest eigenfrequency of
   // the linearized force at the reference configuration; velocity Verlet limit 2/ω_max).
   double stable_time_step() const;
+  // A lower bound on that step from one pass over the bonds (0 for the FEM solver: no bound): any
+  // time step at or below it is stable, and checking it costs a fraction of the estimate above, which
+  // needs some 20–30 applications of the force (tens of seconds at 1e6 particles).
+  double stable_time_step_bound() const;
   MemoryUse memory() const;
   Diagnostics diagnostics() const;
   std::string schedule() const;    // the task graph, one system per line
@@ -118,6 +122,9 @@ class World {
   // reads per system per step). `perifx run --profile` prints it.
   void set_profiling(bool on);
   std::vector<SystemTime> system_times() const;  // in schedule() order
+  // Wall time of each phase of building this world (bodies, families, embedded mesh, model
+  // constants ...) and, once stable_time_step() has run, of the stable-step estimate; runs = 1.
+  std::vector<SystemTime> setup_times() const;
 
   std::span<const Vec3> positions() const;
   std::span<const Vec3> reference_positions() const;
