@@ -14,10 +14,7 @@ World& inelastic_world(std::int64_t particles, int threads) {
   auto& slot = worlds[{particles, threads}];
   if (!slot) {
     scene::Scene s = box_scene(cubes_for(particles), threads, bench_dt());
-    s.materials[0].yield_energy = 1e20;
-    s.materials[0].plastic_cap_ratio = 0.2;
-    s.materials[0].critical_stretch = 0.05;
-    s.contact.mode = scene::Contact::Mode::on;
+    make_inelastic(s);
     slot = std::make_unique<World>(s);
     deform(*slot, threads);
   }

@@ -102,6 +102,16 @@ inline void deform(World& world, int threads) {
     p.acceleration[i] = (w.state.internal_force[i] + w.state.external_force[i]) / p.mass[i];
 }
 
+// Every inelastic system on (BM_FullStepInelastic, BM_FullStepLarge): the material yields (Ψ0 finite,
+// small enough that deviatoric bonds of the 1e-3 pre-stretch are on the yield surface) and is breakable
+// (s_c far above the imposed stretch: the check runs on every bond and nothing breaks), with contact.
+inline void make_inelastic(scene::Scene& s) {
+  s.materials[0].yield_energy = 1e20;
+  s.materials[0].plastic_cap_ratio = 0.2;
+  s.materials[0].critical_stretch = 0.05;
+  s.contact.mode = scene::Contact::Mode::on;
+}
+
 // The cached, deformed world with 6·c³ particles and `threads` threads.
 inline World& world_for(std::int64_t particles, int threads) {
   static std::map<std::pair<int, int>, std::unique_ptr<World>> worlds;
