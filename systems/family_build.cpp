@@ -97,18 +97,37 @@ void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>
   const Lists lists = w.settings.family == scene::FamilyRule::mesh ? families_by_mesh(w, tet_face_neighbors)
                                                                 : families_by_distance(w);
   // A bond is one physical link: i–j is bonded when either found the other. The union of each list
-  // with its transpose T_i = {k : i ∈ L_k}: T is filled in particle order, so every T_i comes out
-  // sorted, and the per-particle merges run in parallel. Deterministic for any thread count.
+  // with its transpose T_i = {k : i ∈ L_k}, then per-particle merges in parallel. The transpose is
+  // built in parallel without atomics: the particles are cut into kChunks index ranges, each range
+  // counts, then fills, its own slots of every T_j after the slots of the ranges before it, so every
+  // T_j comes out in increasing k, exactly as a serial fill in particle order. Deterministic for any
+  // thread count. Scratch: kChunks counts per particle.
+  constexpr std::size_t kChunks = 8;
+  const std::size_t per_chunk = (n + kChunks - 1) / kChunks;
+  std::vector<std::uint32_t> slot(kChunks * n, 0);  // [c·n + j]: chunk c's count, then its next slot in T_j
+  parallel_for_each(kChunks, [&](std::size_t c) {
+    std::uint32_t* const count = slot.data() + c * n;
+    for (std::size_t i = c * per_chunk, end = std::min(n, (c + 1) * per_chunk); i < end; ++i)
+      for (std::uint32_t j : lists[i]) ++count[j];
+  }, 1);
   std::vector<std::uint32_t> t_offsets(n + 1, 0);
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::uint32_t j : lists[i]) ++t_offsets[j + 1];
+  parallel_for_each(n, [&](std::size_t j) {  // counts → offsets within T_j, per chunk
+    std::uint32_t sum = 0;
+    for (std::size_t c = 0; c < kChunks; ++c) {
+      const std::uint32_t count = slot[c * n + j];
+      slot[c * n + j] = sum;
+      sum += count;
+    }
+    t_offsets[j + 1] = sum;
+  }, 4096);
   for (std::size_t i = 0; i < n; ++i) t_offsets[i + 1] += t_offsets[i];
   std::vector<std::uint32_t> transpose(t_offsets[n]);
-  {
-    std::vector<std::uint32_t> fill(t_offsets.begin(), t_offsets.end() - 1);
-    for (std::size_t i = 0; i < n; ++i)
-      for (std::uint32_t j : lists[i]) transpose[fill[j]++] = static_cast<std::uint32_t>(i);
-  }
+  parallel_for_each(kChunks, [&](std::size_t c) {
+    std::uint32_t* const next = slot.data() + c * n;
+    for (std::size_t i = c * per_chunk, end = std::min(n, (c + 1) * per_chunk); i < end; ++i)
+      for (std::uint32_t j : lists[i]) transpose[t_offsets[j] + next[j]++] = static_cast<std::uint32_t>(i);
+  }, 1);
+  slot = {};
   // Visits the sorted union of L_i and T_i.
   auto for_each_member = [&](std::size_t i, auto&& visit) {
     auto a = lists[i].begin(), a_end = lists[i].end();
