@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 #include "io/checkpoint.hpp"
@@ -26,6 +27,7 @@ struct World::Impl {
   std::vector<std::uint64_t> computed_at = std::vector<std::uint64_t>(fields.size(), kStale);
   std::vector<FieldView> computed = std::vector<FieldView>(fields.size());  // derived fields' last views
   double stable_dt = 0.0;
+  std::optional<double> stable_bound;  // World::stable_time_step_bound, once computed
   std::vector<setup::PhaseTime> setup_times;  // construction phases, then the stable-step estimate
 
   ~Impl() { scheduler.reset(); }  // the graph's nodes reference the state; tear them down first
@@ -121,12 +123,13 @@ double World::stable_time_step() const {
 }
 
 double World::stable_time_step_bound() const {
-  const auto start = std::chrono::steady_clock::now();
-  double bound = 0.0;
-  impl_->scheduler->execute([&] { bound = setup::stable_time_step_bound(*impl_->state); });
-  impl_->setup_times.push_back(
-      {"stable time step bound", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()});
-  return bound;
+  if (!impl_->stable_bound) {
+    const auto start = std::chrono::steady_clock::now();
+    impl_->scheduler->execute([&] { impl_->stable_bound = setup::stable_time_step_bound(*impl_->state); });
+    impl_->setup_times.push_back(
+        {"stable time step bound", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()});
+  }
+  return *impl_->stable_bound;
 }
 
 std::vector<SystemTime> World::setup_times() const {
@@ -308,6 +311,7 @@ std::string World::load_checkpoint(const std::filesystem::path& file) {
     throw scene::SceneError(impl_->scene.source.string(), "", "cannot resume from checkpoint '" + file.string() + "': " + why);
   io::read_checkpoint(file, state_mutable());
   impl_->stable_dt = 0.0;
+  impl_->stable_bound.reset();
   return h.note;
 }
 

@@ -310,7 +310,10 @@ int cmd_info(const Args& a) {
     double total = 0.0;
     std::ostringstream phases;
     phases.precision(3);
-    for (const auto& t : world.setup_times()) phases << (total > 0.0 || phases.tellp() > 0 ? ", " : "") << t.name << " " << t.seconds << " s", total += t.seconds;
+    for (const auto& t : world.setup_times()) {
+      phases << (phases.tellp() > 0 ? ", " : "") << t.name << " " << t.seconds << " s";
+      total += t.seconds;
+    }
     std::ostringstream head;
     head.precision(3);
     head << "set-up           " << total << " s (" << phases.str() << ")\n";

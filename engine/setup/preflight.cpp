@@ -49,7 +49,7 @@ double primitive_tets(const scene::Body& body) {
 double bytes_per_bond(const scene::Scene& scene) {
   bool plastic = false, planes = false;
   for (const auto& m : scene.materials) {
-    plastic = plastic || std::isfinite(m.yield_energy) || (m.yield_stress > 0.0 && std::isfinite(m.yield_stress));
+    plastic = plastic || can_yield(m);
     planes = planes || !m.strength.weak_planes.empty();
   }
   return kBytesPerBondState + (plastic ? kBytesPerBondPlastic : 0.0) + (planes ? kBytesPerBondScale : 0.0) +

@@ -13,7 +13,6 @@
 
 #include "setup/world_setup.hpp"
 #include "systems/bond_rules.hpp"
-#include "systems/bond_rules.hpp"
 #include "systems/parallel.hpp"
 #include "systems/systems.hpp"
 

@@ -60,6 +60,10 @@ double max_speed(const scene::Scene& scene, const WorldState& w) {
 
 }  // namespace
 
+bool can_yield(const scene::Material& m) {
+  return std::isfinite(m.yield_energy) || (m.yield_stress > 0.0 && std::isfinite(m.yield_stress));
+}
+
 std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Scheduler& scheduler,
                                               std::vector<PhaseTime>* times) {
   // Phase timer: each call closes the phase that began at the previous one.
@@ -74,7 +78,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   w.clock.dt = scene.time.dt;
   resolve_settings(scene, w.settings);
   for (const auto& m : scene.materials) {
-    w.any_plastic = w.any_plastic || std::isfinite(m.yield_energy) || (m.yield_stress > 0.0 && std::isfinite(m.yield_stress));
+    w.any_plastic = w.any_plastic || can_yield(m);
     w.any_anisotropic = w.any_anisotropic || m.anisotropy != Mat3::Identity();
     w.any_fracture = w.any_fracture || std::isfinite(m.critical_stretch) ||
                      (m.fracture_energy > 0.0 && std::isfinite(m.fracture_energy));

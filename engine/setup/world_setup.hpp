@@ -43,6 +43,10 @@ void resolve_loads(const std::vector<scene::Load>& loads, WorldState& w);
 // stable_time_step.cpp: largest stable velocity-Verlet step 2/ω_max, ω_max² the largest eigenvalue
 // of M⁻¹K for the linearized elastic force at the reference configuration.
 double estimate_stable_time_step(const WorldState& world);
+// world_setup.cpp: whether a material can yield (a finite yield energy or a positive, finite yield
+// stress): the world then keeps e^p per bond (WorldState::any_plastic, the preflight's bytes per bond).
+bool can_yield(const scene::Material& material);
+
 // stable_time_step.cpp: a lower bound on that step from one pass over the bonds (peridynamics; 0 for
 // the FEM solver, which has none): a time step at or below it is stable without the estimate.
 double stable_time_step_bound(const WorldState& world);
