@@ -34,8 +34,17 @@ struct Particles {
 // discrete normalization, on the particle's own family). With them every bond force is
 //   A_ij = ω_ij (Λ_ij·P_i + b4_i·(e_ij − e^p_ij)),   P_i = (a4_i − b4_i·β_i)·θ_i,
 // which is Eq 4 + Eq 8/12 regrouped: a4 = 4a, b4 = 4b, β = δ/4 in the paper's normalization.
+// M = GᵀG of a particle's material (Eq 17) as its six distinct entries: the weighted length of a bond
+// side is ℓ_ij = |G_i ξ| = sqrt(ξᵀ M_i ξ). Kept per particle, so a bond kernel gathers it from j like
+// the positions (through material_id, a two-level gather, GCC 12 would not vectorize the bond loop).
+struct AnisotropyMetric {
+  double xx, yy, zz, xy, xz, yz;
+};
+
 struct ParticleModel {
   std::vector<double> horizon;          // δ, m
+  // Per particle when some material has G ≠ I (WorldState::any_anisotropic), else empty.
+  std::vector<AnisotropyMetric> anisotropy_metric;
   std::vector<double> dilatation_scale; // θ_i = dilatation_scale_i · Σ ω e Λ V  (paper: 9/(4πδ⁴))
   std::vector<double> a4;               // 4a, Pa/m⁴ (paper: 4·9κ/(8πδ⁴))
   std::vector<double> b4;               // 4b, Pa/m⁵ (paper: 4·15μ/(2πδ⁵))

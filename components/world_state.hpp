@@ -128,6 +128,7 @@ void for_each_array(W& w, F&& f) {
   f(K::particle, "particles.flags", p.flags);
   auto& m = w.model;
   f(K::particle, "model.horizon", m.horizon);
+  f(K::particle, "model.anisotropy_metric", m.anisotropy_metric);
   f(K::particle, "model.dilatation_scale", m.dilatation_scale);
   f(K::particle, "model.a4", m.a4);
   f(K::particle, "model.b4", m.b4);

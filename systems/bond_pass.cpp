@@ -56,7 +56,7 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
     const auto o = bs.origin(i);
     const BondEnd end_i = ends[i];
     const SideConstants side_i = side_constants(end_i);
-    const Mat3& g_i = bs.anisotropy(i);
+    const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
     double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
     std::uint64_t alive_lanes[kBondLanes] = {}, breaks_lanes[kBondLanes] = {};
     auto lane = [=, &g_i, &fx, &fy, &fz, &alive_lanes, &breaks_lanes](std::size_t k, int l, std::uint64_t was_alive) {
@@ -69,15 +69,14 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
       const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (was_alive != 0);
       const BondEnd& end_j = ends[j];
       const SideConstants side_j = side_constants(end_j);
-      const double l_ij = weighted_length<kAnisotropic>(g_i, r, dxx, dxy, dxz);
-      const double l_ji = weighted_length<kAnisotropic>(bs.anisotropy(j), r, dxx, dxy, dxz);
+      const SideLengths weighted = side_lengths<kAnisotropic>(g_i, bs.template anisotropy<kAnisotropic>(j), r, dxx, dxy, dxz);
       double ep_ij = 0.0, ep_ji = 0.0;
       if constexpr (kPlastic) {  // plasticity.cpp. Stored as float; the force and the break test use the
         // rounded value, as the separate systems do when they read it back. Selected in float, then
         // widened once (a select between a float and a double kept GCC 12 from vectorizing the loop).
         const float old_ij = bs.plastic[k], old_ji = bs.plastic_mirror[k];
-        const float new_ij = static_cast<float>(side_plastic_extension(g, r, l_ij, old_ij, side_i));
-        const float new_ji = static_cast<float>(side_plastic_extension(g, r, l_ji, old_ji, side_j));
+        const float new_ij = static_cast<float>(side_plastic_extension(g, r, weighted.ij, old_ij, side_i));
+        const float new_ji = static_cast<float>(side_plastic_extension(g, r, weighted.ji, old_ji, side_j));
         const float kept_ij = active ? new_ij : old_ij, kept_ji = active ? new_ji : old_ji;
         bs.plastic[k] = kept_ij;
         bs.plastic_mirror[k] = kept_ji;
@@ -87,7 +86,8 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
       // elastic_force.cpp. Computed for every lane, then selected: a load inside the condition would
       // be a masked gather.
       const double density = paired_force_density<kAnisotropic, kPlastic>(
-          g, force_weight<kAnisotropic>(side_i.horizon, l_ij), force_weight<kAnisotropic>(side_j.horizon, l_ji), ep_ij,
+          g, force_weight<kAnisotropic>(side_i.horizon, weighted.inverse_ij),
+          force_weight<kAnisotropic>(side_j.horizon, weighted.inverse_ji), ep_ij,
           ep_ji, end_i.coupling, end_i.b4, end_j.coupling, end_j.b4, end_j.volume);
       const double c = active ? density : 0.0;
       fx[l] += c * dyx;
@@ -97,8 +97,8 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
       if constexpr (kFracture) {  // fracture.cpp
         const double scale = kScaled ? double(bs.break_scale[k]) : 1.0;
         breaks = static_cast<std::uint64_t>(active & (g.extension > 0.0) &
-                                            (side_breaks<kAnisotropic>(g, r, l_ij, ep_ij, side_i, scale) |
-                                             side_breaks<kAnisotropic>(g, r, l_ji, ep_ji, side_j, scale)));
+                                            (side_breaks<kAnisotropic>(g, r, weighted.inverse_ij, ep_ij, side_i, scale) |
+                                             side_breaks<kAnisotropic>(g, r, weighted.inverse_ji, ep_ji, side_j, scale)));
       }
       breaks_lanes[l] = breaks;
       alive_lanes[l] += was_alive & ~breaks;  // damage.cpp (a collapsed bond stays alive)

@@ -34,26 +34,56 @@ inline double reference_length(double dxx, double dxy, double dxz) {
 inline double reference_length(const Vec3& xi) { return reference_length(xi.x(), xi.y(), xi.z()); }
 
 // Weighted length of a bond side, ℓ_ij = |G_i ξ| (Eq 17; ω_ij = δ_i/ℓ_ij, Eq 5): |ξ| = r for the
-// isotropic weight. The yield and break limits below scale with it. Also bit-symmetric: G(−ξ) is the
-// exact negation of Gξ.
-inline double anisotropic_length(const Mat3& g, double dxx, double dxy, double dxz) {
-  const double gx = g(0, 0) * dxx + g(0, 1) * dxy + g(0, 2) * dxz;
-  const double gy = g(1, 0) * dxx + g(1, 1) * dxy + g(1, 2) * dxz;
-  const double gz = g(2, 0) * dxx + g(2, 1) * dxy + g(2, 2) * dxz;
-  return std::sqrt(gx * gx + gy * gy + gz * gz);
+// isotropic weight. The yield and break limits below scale with it. Evaluated as sqrt(ξᵀ M ξ) with
+// M = GᵀG per particle (ParticleModel::anisotropy_metric): six gathered numbers instead of a 3×3
+// matrix through the material table. Bit-symmetric: every term is a product of two components of ξ,
+// unchanged to the bit when ξ is negated. The max guards a rounding below zero for a degenerate G.
+inline AnisotropyMetric anisotropy_metric(const Mat3& g) {
+  const Mat3 m = g.transpose() * g;
+  return {m(0, 0), m(1, 1), m(2, 2), m(0, 1), m(0, 2), m(1, 2)};
+}
+inline double anisotropic_length(const AnisotropyMetric& m, double dxx, double dxy, double dxz) {
+  const double diagonal = m.xx * dxx * dxx + m.yy * dxy * dxy + m.zz * dxz * dxz;
+  const double mixed = m.xy * dxx * dxy + m.xz * dxx * dxz + m.yz * dxy * dxz;
+  return std::sqrt(std::max(diagonal + 2.0 * mixed, 0.0));
+}
+// GᵀG of particle i, or the identity in an isotropic world (which stores none).
+inline const AnisotropyMetric& particle_metric(const std::vector<AnisotropyMetric>& metric, std::size_t i) {
+  static constexpr AnisotropyMetric kIdentity{1.0, 1.0, 1.0, 0.0, 0.0, 0.0};
+  return metric.empty() ? kIdentity : metric[i];
 }
 template <bool kAnisotropic>
-inline double weighted_length(const Mat3& g, double r, double dxx, double dxy, double dxz) {
-  if constexpr (kAnisotropic) return anisotropic_length(g, dxx, dxy, dxz);
+inline double weighted_length(const AnisotropyMetric& m, double r, double dxx, double dxy, double dxz) {
+  if constexpr (kAnisotropic) return anisotropic_length(m, dxx, dxy, dxz);
   else return r;
+}
+
+// Both sides' weighted lengths of a bond and their reciprocals, for the kernels that need both sides
+// (force, plasticity, fracture): one division, u = 1/(ℓ_ij ℓ_ji), gives 1/ℓ_ij = ℓ_ji u and
+// 1/ℓ_ji = ℓ_ij u (the pass is bound by divisions and square roots). Still bit-symmetric: seen from
+// j, the same two lengths are multiplied in the other order, which is exact. Isotropic: ℓ = r on both
+// sides, and the reciprocals are not used (the isotropic 1/|ξ| enters with BondGeometry).
+struct SideLengths {
+  double ij, ji;                  // ℓ_ij, ℓ_ji, m
+  double inverse_ij, inverse_ji;  // 1/ℓ_ij, 1/ℓ_ji, 1/m (anisotropic worlds only)
+};
+template <bool kAnisotropic>
+inline SideLengths side_lengths(const AnisotropyMetric& m_i, const AnisotropyMetric& m_j, double r, double dxx,
+                                double dxy, double dxz) {
+  if constexpr (kAnisotropic) {
+    const double l_ij = anisotropic_length(m_i, dxx, dxy, dxz), l_ji = anisotropic_length(m_j, dxx, dxy, dxz);
+    const double u = 1.0 / (l_ij * l_ji);
+    return {l_ij, l_ji, l_ji * u, l_ij * u};
+  } else {
+    return {r, r, 0.0, 0.0};
+  }
 }
 
 // ω_ij = δ_i/ℓ_ij of particle i's bond with reference vector ξ (Eq 5, 17), for code off the bond
 // kernels' hot path (model constants, deformation fits, energy, virial stress).
 inline double bond_weight(const WorldState& w, std::size_t i, const Vec3& xi) {
-  const double l = w.any_anisotropic
-                       ? anisotropic_length(w.settings.materials[w.particles.material_id[i]].anisotropy, xi.x(), xi.y(), xi.z())
-                       : reference_length(xi);
+  const double l = w.any_anisotropic ? anisotropic_length(w.model.anisotropy_metric[i], xi.x(), xi.y(), xi.z())
+                                      : reference_length(xi);
   return w.model.horizon[i] / l;
 }
 
@@ -108,8 +138,8 @@ inline double side_force_state(const BondGeometry& g, double weight, double plas
 // unit V_i. The side weights come as force_weight forms them: anisotropic, ω_ij and ω_ji; isotropic,
 // δ_i and δ_j, whose common 1/|ξ| enters with g.inverse_length_r (a multiplication, no division).
 template <bool kAnisotropic>
-inline double force_weight(double horizon, double length) {
-  if constexpr (kAnisotropic) return horizon / length;
+inline double force_weight(double horizon, double inverse_length) {
+  if constexpr (kAnisotropic) return horizon * inverse_length;
   else return horizon;
 }
 template <bool kAnisotropic, bool kPlastic>
@@ -147,8 +177,8 @@ inline bool side_exceeds(double extension, double plastic_extension, double limi
   return extension - plastic_extension > limit;
 }
 template <bool kAnisotropic>
-inline double break_limit(double break_extension, double r, double length) {
-  if constexpr (kAnisotropic) return break_extension * (r / length);
+inline double break_limit(double break_extension, double r, double inverse_length) {
+  if constexpr (kAnisotropic) return break_extension * (r * inverse_length);
   else return break_extension;
 }
 
@@ -181,13 +211,14 @@ inline double side_plastic_extension(const BondGeometry& g, double r, double len
                         c.plastic_cap * r);
 }
 
-// Fracture of one side of bond k with that side's weighted length ℓ and (new) e^p; `scale` is the
+// Fracture of one side of bond k with that side's 1/ℓ (SideLengths) and (new) e^p; `scale` is the
 // bond's break multiplier (Bonds::break_scale: weak planes, 1 elsewhere, which leaves the limit
 // unchanged bit for bit).
 template <bool kAnisotropic>
-inline bool side_breaks(const BondGeometry& g, double r, double length, double plastic_extension,
+inline bool side_breaks(const BondGeometry& g, double r, double inverse_length, double plastic_extension,
                         const SideConstants& c, double scale) {
-  return side_exceeds(g.extension, plastic_extension, break_limit<kAnisotropic>(c.break_extension, r, length) * scale);
+  return side_exceeds(g.extension, plastic_extension,
+                      break_limit<kAnisotropic>(c.break_extension, r, inverse_length) * scale);
 }
 
 // Lane-strided visit of a family's bonds [begin, end): chunks of kBondLanes consecutive bonds, bond
@@ -234,7 +265,7 @@ inline T sum_lanes(const T (&lanes)[kBondLanes]) {
 // pass). Shapes: offsets particles + 1; neighbor, alive, plastic, plastic_mirror, break_scale one
 // entry per directed bond k (CSR: particle i owns [offsets[i], offsets[i+1]); plastic and
 // break_scale null when the world has none); y and x 3 doubles per particle (current and reference
-// positions, x y z); horizon and material_id per particle; materials per material (its anisotropy G).
+// positions, x y z); horizon and the anisotropy metric GᵀG per particle.
 template <bool kMutable>
 struct BondStreams {
   using Plastic = std::conditional_t<kMutable, float, const float>;
@@ -248,8 +279,7 @@ struct BondStreams {
   const double* x;
   const float* break_scale;  // Bonds::break_scale (null: 1 for every bond)
   const double* horizon;     // δ per particle
-  const std::uint16_t* material_id;
-  const scene::Material* materials;
+  const AnisotropyMetric* metric;  // GᵀG per particle (null in an isotropic world)
 
   // Particle i's end of its bonds, in component form. A lane then forms its bond's vectors as
   // dy = y[3j + c] − o.y_c and ξ = x[3j + c] − o.x_c in the kernel's own body: returned from a helper
@@ -261,8 +291,15 @@ struct BondStreams {
   Origin origin(std::size_t i) const {
     return {y[3 * i], y[3 * i + 1], y[3 * i + 2], x[3 * i], x[3 * i + 1], x[3 * i + 2]};
   }
-  // G of particle i's material (Eq 17).
-  const Mat3& anisotropy(std::size_t i) const { return materials[material_id[i]].anisotropy; }
+  // GᵀG of particle i's material (Eq 17). An isotropic world stores none; there the identity stands
+  // in, which weighted_length<false> never reads. Chosen at compile time: a run-time choice would be a
+  // masked gather, which kept GCC 12 from vectorizing the bond loop.
+  template <bool kAnisotropic>
+  const AnisotropyMetric& anisotropy(std::size_t i) const {
+    static constexpr AnisotropyMetric kIdentity{1.0, 1.0, 1.0, 0.0, 0.0, 0.0};
+    if constexpr (kAnisotropic) return metric[i];
+    else return kIdentity;
+  }
 };
 // From a world (writable streams) or a const world (read-only), with positions y.
 template <class World>
@@ -278,8 +315,7 @@ inline BondStreams<!std::is_const_v<World>> bond_streams(World& w, const std::ve
           w.particles.reference_position.data()->data(),
           b.break_scale.empty() ? nullptr : b.break_scale.data(),
           w.model.horizon.data(),
-          w.particles.material_id.data(),
-          w.settings.materials.data()};
+          w.model.anisotropy_metric.data()};
 }
 
 // Runtime model flags to template flags, written once for every bond kernel: calls

@@ -20,7 +20,7 @@ void compute_dilatation(const WorldState& w, const std::vector<Vec3>& y_vec, std
     constexpr bool kAnisotropic = decltype(aniso)::value;
     parallel_for_each(w.particles.count(), [&](std::size_t i) {
       const auto o = bs.origin(i);
-      const Mat3& g_i = bs.anisotropy(i);
+      const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
       double sum[kBondLanes] = {};
       // Lane-strided so that the bond loop runs as SIMD with a fixed summation order (bond_rules.hpp).
       // ω e Λ = (δ_i/ℓ)(|y_j−y_i| − |ξ|)(y_j−y_i)·ξ/(|y_j−y_i| |ξ|): δ_i moves out of the sum, and one

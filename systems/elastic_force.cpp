@@ -52,7 +52,7 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec,
     parallel_for_each(w.particles.count(), [&](std::size_t i) {
       const auto o = bs.origin(i);
       const double p_i = p[i], b4_i = b4[i], delta_i = bs.horizon[i];
-      const Mat3& g_i = bs.anisotropy(i);
+      const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
       double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
       auto lane = [=, &fx, &fy, &fz, &g_i](std::size_t k, int l, std::uint64_t is_alive) {
         const std::size_t j = bs.neighbor[k];
@@ -61,9 +61,10 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec,
         const double r = reference_length(dxx, dxy, dxz);
         BondGeometry g;
         const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (is_alive != 0);
-        const double w_ij = force_weight<kAnisotropic>(delta_i, weighted_length<kAnisotropic>(g_i, r, dxx, dxy, dxz));
-        const double w_ji =
-            force_weight<kAnisotropic>(bs.horizon[j], weighted_length<kAnisotropic>(bs.anisotropy(j), r, dxx, dxy, dxz));
+        const SideLengths weighted =
+            side_lengths<kAnisotropic>(g_i, bs.template anisotropy<kAnisotropic>(j), r, dxx, dxy, dxz);
+        const double w_ij = force_weight<kAnisotropic>(delta_i, weighted.inverse_ij);
+        const double w_ji = force_weight<kAnisotropic>(bs.horizon[j], weighted.inverse_ji);
         const double ep_ij = kPlastic ? double(bs.plastic[k]) : 0.0, ep_ji = kPlastic ? double(bs.plastic_mirror[k]) : 0.0;
         const double density = paired_force_density<kAnisotropic, kPlastic>(g, w_ij, w_ji, ep_ij, ep_ji, p_i, b4_i, p[j],
                                                                             b4[j], volume[j]);

@@ -28,15 +28,14 @@ bool breaks(const WorldState& w, const std::vector<Vec3>& y, std::uint32_t i, st
   const double r = reference_length(dxi);
   BondGeometry g;
   if (!bond_geometry(y[j] - y[i], dxi, r, g) || !(g.extension > 0.0)) return false;
-  const auto& materials = w.settings.materials;
-  const auto& material_id = w.particles.material_id;
-  const double l_ij = weighted_length<kAnisotropic>(materials[material_id[i]].anisotropy, r, dxi.x(), dxi.y(), dxi.z());
-  const double l_ji = weighted_length<kAnisotropic>(materials[material_id[j]].anisotropy, r, dxi.x(), dxi.y(), dxi.z());
+  const auto& metric = w.model.anisotropy_metric;
+  const SideLengths weighted =
+      side_lengths<kAnisotropic>(particle_metric(metric, i), particle_metric(metric, j), r, dxi.x(), dxi.y(), dxi.z());
   const double ep_ij = w.any_plastic ? double(b.plastic_extension[k]) : 0.0;
   const double ep_ji = w.any_plastic ? double(b.plastic_extension_mirror[k]) : 0.0;
   const double scale = b.break_scale.empty() ? 1.0 : double(b.break_scale[k]);
-  return side_breaks<kAnisotropic>(g, r, l_ij, ep_ij, side_constants(w.model, w.state, i), scale) ||
-         side_breaks<kAnisotropic>(g, r, l_ji, ep_ji, side_constants(w.model, w.state, j), scale);
+  return side_breaks<kAnisotropic>(g, r, weighted.inverse_ij, ep_ij, side_constants(w.model, w.state, i), scale) ||
+         side_breaks<kAnisotropic>(g, r, weighted.inverse_ji, ep_ji, side_constants(w.model, w.state, j), scale);
 }
 
 }  // namespace

@@ -27,7 +27,7 @@ void plastic_pass(WorldState& w, const std::vector<Vec3>& y) {
   parallel_for_each(w.particles.count(), [&](std::size_t i) {
     const Vec3 yi = y[i], xi = x[i];
     const SideConstants side_i = side_constants(w.model, w.state, i);
-    const Mat3& g_i = w.settings.materials[w.particles.material_id[i]].anisotropy;
+    const AnisotropyMetric& g_i = particle_metric(w.model.anisotropy_metric, i);
     for (std::uint32_t k = b.offsets[i], end = b.offsets[i + 1]; k < end; ++k) {
       if (!b.alive[k]) continue;
       const std::uint32_t j = b.neighbor[k];
@@ -35,14 +35,13 @@ void plastic_pass(WorldState& w, const std::vector<Vec3>& y) {
       const double r = reference_length(dxi);
       BondGeometry g;
       if (!bond_geometry(y[j] - yi, dxi, r, g)) continue;
-      const Mat3& g_j = w.settings.materials[w.particles.material_id[j]].anisotropy;
-      const double l_ij = weighted_length<kAnisotropic>(g_i, r, dxi.x(), dxi.y(), dxi.z());
-      const double l_ji = weighted_length<kAnisotropic>(g_j, r, dxi.x(), dxi.y(), dxi.z());
+      const AnisotropyMetric& g_j = particle_metric(w.model.anisotropy_metric, j);
+      const SideLengths weighted = side_lengths<kAnisotropic>(g_i, g_j, r, dxi.x(), dxi.y(), dxi.z());
       const SideConstants side_j = side_constants(w.model, w.state, j);
       // Stored as float (components/bonds.hpp); both ends round the same double.
-      b.plastic_extension[k] = static_cast<float>(side_plastic_extension(g, r, l_ij, b.plastic_extension[k], side_i));
+      b.plastic_extension[k] = static_cast<float>(side_plastic_extension(g, r, weighted.ij, b.plastic_extension[k], side_i));
       b.plastic_extension_mirror[k] =
-          static_cast<float>(side_plastic_extension(g, r, l_ji, b.plastic_extension_mirror[k], side_j));
+          static_cast<float>(side_plastic_extension(g, r, weighted.ji, b.plastic_extension_mirror[k], side_j));
     }
   }, 256);
 }

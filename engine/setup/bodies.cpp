@@ -10,6 +10,7 @@
 
 #include "geometry/geometry.hpp"
 #include "setup/world_setup.hpp"
+#include "systems/bond_rules.hpp"
 
 namespace perifx::setup {
 namespace {
@@ -166,6 +167,13 @@ void allocate_step_state(WorldState& w) {
   s.bond_end.assign(n, BondEnd{});
   s.contact_force.assign(n, Vec3::Zero());
   s.broken_bonds.assign(n, 0);
+  // GᵀG per particle, before anything measures a bond's weighted length (families, embedded mesh).
+  w.model.anisotropy_metric.clear();
+  if (w.any_anisotropic) {
+    w.model.anisotropy_metric.resize(n);
+    for (std::size_t i = 0; i < n; ++i)
+      w.model.anisotropy_metric[i] = systems::anisotropy_metric(w.settings.materials[p.material_id[i]].anisotropy);
+  }
 }
 
 }  // namespace perifx::setup
