@@ -84,6 +84,48 @@ const std::uint32_t mask = g.mask;
 }
 
 // Setup: sizes every buffer for n points and the given cell edge (allocates).
+// The forward half of for_each_near's 27 cells, for a search that must find each pair once: the nine
+// cells of the row layer above (dz = +1), the three of the next row (dz = 0, dy = +1), the next cell of
+// y's own row (dx = +1), and in y's own cell only the points with index > self. For any two cells,
+// exactly one lies in the other's forward half (the offsets o and −o are never both in it), so a pair
+// within one cell's reach is visited from exactly one of its ends. Fixed order, as for_each_near.
+template <class Visit>
+void for_each_near_forward(const SpatialGrid& g, const Vec3& y, std::uint32_t self, Visit&& visit) {
+  const auto& sorted_key = g.sorted_key;
+  const auto& start = g.start;
+  const std::uint32_t mask = g.mask;
+  const Cell ci = cell_at(y, 1.0 / g.cell);
+  const std::uint64_t own_key = key(ci);
+  // Cells [x_first, x_first + cells) of the row (dy, dz) around y's cell.
+  auto row = [&](std::int32_t dx_first, std::int32_t cells, std::int32_t dy, std::int32_t dz) {
+    const Cell first = {ci.x + dx_first, ci.y + dy, ci.z + dz};
+    const std::uint64_t row_key = key(first) & ~kXMask;
+    const std::uint64_t x_lo = key(first) & kXMask, x_hi = x_lo + std::uint64_t(cells - 1);
+    auto scan = [&](std::uint32_t from, std::uint32_t to) {
+      for (std::uint32_t q = from; q < to; ++q) {
+        const std::uint64_t k = sorted_key[q];
+        if ((k & ~kXMask) != row_key) continue;
+        const std::uint64_t xk = k & kXMask;
+        if (xk < x_lo || xk > x_hi) continue;
+        if (k == own_key && g.sorted[q] <= self) continue;
+        visit(q);
+      }
+    };
+    const std::uint32_t b0 = hash(first, mask);
+    if (b0 + std::uint32_t(cells) - 1 <= mask) {
+      scan(start[b0], start[b0 + std::uint32_t(cells)]);
+    } else {  // the row wraps around the end of the table
+      for (std::uint32_t t = 0; t < std::uint32_t(cells); ++t) {
+        const std::uint32_t bk = (b0 + t) & mask;
+        scan(start[bk], start[bk + 1]);
+      }
+    }
+  };
+  row(0, 2, 0, 0);  // y's own cell (index > self) and the next one
+  row(-1, 3, 1, 0);
+  for (std::int32_t dy = -1; dy <= 1; ++dy) row(-1, 3, dy, 1);
+}
+
 void allocate_grid(SpatialGrid& grid, std::size_t n, double cell_edge);
 // Sorts the n points (n as allocated) into the grid; parallel cells, serial counting sort. No allocation.
 void build_grid(SpatialGrid& grid, const std::vector<Vec3>& points);
