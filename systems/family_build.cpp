@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <span>
 
 #include "bond_rules.hpp"
 #include "huge_pages.hpp"
@@ -27,23 +28,53 @@ namespace {
 constexpr double kHorizonSlack = 1e-9;
 constexpr double kGridMargin = 1e-6;
 
-using Lists = std::vector<std::vector<std::uint32_t>>;
+// Per-particle candidate lists (sorted), stored by chunks of kListChunk consecutive particles: chunk c
+// appends its particles' lists, in index order, to one vector of its own. One growing vector per
+// chunk instead of one per particle: at 9e5 particles the per-particle vectors cost about nine
+// hundred thousand allocations, each grown several times, and their page faults.
+constexpr std::size_t kListChunk = 2048;
+struct Lists {
+  std::vector<std::vector<std::uint32_t>> chunk;  // per chunk, its particles' lists back to back
+  std::vector<std::uint32_t> begin, count;        // per particle: where its list starts in its chunk, length
+  std::span<const std::uint32_t> operator[](std::size_t i) const {
+    return {chunk[i / kListChunk].data() + begin[i], count[i]};
+  }
+};
+
+// Builds the lists in parallel by chunks (deterministic: each chunk's content depends on its particles
+// only). fill(i, out) appends particle i's list to out, in any order; it is then sorted.
+template <class Fill>
+Lists build_lists(std::size_t n, Fill&& fill) {
+  Lists lists;
+  lists.chunk.resize((n + kListChunk - 1) / kListChunk);
+  lists.begin.resize(n);
+  lists.count.resize(n);
+  parallel_for_each(lists.chunk.size(), [&](std::size_t c) {
+    auto& out = lists.chunk[c];
+    for (std::size_t i = c * kListChunk, end = std::min(n, (c + 1) * kListChunk); i < end; ++i) {
+      const std::size_t first = out.size();
+      fill(i, out);
+      std::sort(out.begin() + std::ptrdiff_t(first), out.end());
+      lists.begin[i] = static_cast<std::uint32_t>(first);
+      lists.count[i] = static_cast<std::uint32_t>(out.size() - first);
+    }
+  }, 1);
+  return lists;
+}
 
 Lists families_by_mesh(const WorldState& w, const std::vector<std::array<std::int32_t, 4>>& adjacency) {
   const auto& x = w.particles.reference_position;
   const std::size_t n = x.size();
-  Lists lists(n);
   struct Scratch {
     std::vector<std::uint32_t> stamp;  // stamp[t] == i+1: tet t already seen from particle i
     std::vector<std::uint32_t> queue;
   };
   tbb::enumerable_thread_specific<Scratch> scratch([n] { return Scratch{std::vector<std::uint32_t>(n, 0), {}}; });
-  parallel_for_each(n, [&](std::size_t i) {
+  return build_lists(n, [&](std::size_t i, std::vector<std::uint32_t>& out) {
     Scratch& s = scratch.local();
     const auto mark = static_cast<std::uint32_t>(i + 1);
     const double reach = w.model.horizon[i] * (1.0 + kHorizonSlack);
     const double reach2 = reach * reach;
-    auto& out = lists[i];
     s.queue.clear();
     s.queue.push_back(static_cast<std::uint32_t>(i));
     s.stamp[i] = mark;
@@ -59,16 +90,13 @@ Lists families_by_mesh(const WorldState& w, const std::vector<std::array<std::in
         }
       }
     }
-    std::sort(out.begin(), out.end());
-  }, 64);
-  return lists;
+  });
 }
 
 Lists families_by_distance(const WorldState& w) {
   const auto& x = w.particles.reference_position;
   const std::size_t n = x.size();
-  Lists lists(n);
-  if (n == 0) return lists;
+  if (n == 0) return {};
   double cell = 0.0;
   for (std::size_t i = 0; i < n; ++i) cell = std::max(cell, w.model.horizon[i] * (1.0 + kHorizonSlack));
   // Every pair within reach is in neighbouring cells; the margin keeps that true through the
@@ -76,17 +104,14 @@ Lists families_by_distance(const WorldState& w) {
   SpatialGrid grid;
   allocate_grid(grid, n, cell * (1.0 + kGridMargin));
   build_grid(grid, x);
-  parallel_for_each(n, [&](std::size_t i) {
+  return build_lists(n, [&](std::size_t i, std::vector<std::uint32_t>& out) {
     const double reach = w.model.horizon[i] * (1.0 + kHorizonSlack);
-    auto& out = lists[i];
     for_each_near(grid, x[i], [&](std::uint32_t q) {
       const std::uint32_t j = grid.sorted[q];
       if (j == i || w.particles.body_id[j] != w.particles.body_id[i]) return;
       if ((x[j] - x[i]).squaredNorm() <= reach * reach) out.push_back(j);
     });
-    std::sort(out.begin(), out.end());
-  }, 64);
-  return lists;
+  });
 }
 
 }  // namespace
@@ -130,7 +155,8 @@ void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>
   slot = {};
   // Visits the sorted union of L_i and T_i.
   auto for_each_member = [&](std::size_t i, auto&& visit) {
-    auto a = lists[i].begin(), a_end = lists[i].end();
+    const auto row = lists[i];
+    auto a = row.begin(), a_end = row.end();
     auto t = transpose.begin() + t_offsets[i], t_end = transpose.begin() + t_offsets[i + 1];
     while (a != a_end || t != t_end) {
       std::uint32_t next;

@@ -48,7 +48,9 @@ namespace {
 
 constexpr std::uint64_t kRefreshSteps = 8;
 
-// K and N over p's bonds (alive ones only, or all); returns the number of bonds summed.
+// K and N over p's bonds (alive ones only, or all); returns the number of bonds summed. kWithN = false
+// sums K alone (set-up's fit test needs no N), with the same bits.
+template <bool kWithN = true>
 std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N) {
   const Bonds& b = w.bonds;
   const auto& x = w.particles.reference_position;
@@ -63,7 +65,7 @@ std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, M
     const Vec3 xi = x[j] - x[p];
     const Vec3 wxi = (bond_weight(w, p, xi) * vol[j]) * xi;
     K += wxi * xi.transpose();
-    N += (y[j] - y[p]) * wxi.transpose();
+    if constexpr (kWithN) N += (y[j] - y[p]) * wxi.transpose();
     ++n;
   }
   return n;
@@ -110,7 +112,7 @@ void init_held_rotations(WorldState& w) {
   // configuration). So an untracked particle always had every listed bond alive at the last step.
   parallel_for_each(np, [&](std::size_t p) {
     Mat3 K, N;
-    const std::uint32_t alive = family_sums(w, p, true, K, N);
+    const std::uint32_t alive = family_sums<false>(w, p, true, K, N);
     const std::uint32_t listed = w.bonds.offsets[p + 1] - w.bonds.offsets[p];
     if (alive < listed || !family_fits(K, alive)) e.held_tracked[p] = 1;
   }, 256);
