@@ -61,9 +61,10 @@ namespace {
 constexpr double kSkinFraction = 0.6;     // skin = this × the largest contact distance (see above)
 constexpr std::size_t kFullRebuildShare = 8;  // rebuild the whole list when more than n/8 moved
 // Calls visit(j) for every unbonded particle j ≠ i within the grid cell size of i, in a fixed order
-// (9 rows of 3 cells). `stamp` is this (pass, particle)'s unique mark and `marks` the calling
-// thread's row of ContactPairs::bonded_stamp.
-template <class Visit>
+// (9 rows of 3 cells; kForwardHalf: only the forward half of them, for_each_near_forward, so that a
+// search of every particle visits each pair once). `stamp` is this (pass, particle)'s unique mark and
+// `marks` the calling thread's row of ContactPairs::bonded_stamp.
+template <bool kForwardHalf = false, class Visit>
 void for_each_candidate(const WorldState& w, std::uint32_t i, std::uint64_t stamp, std::uint64_t* marks,
                         Visit&& visit) {
   const auto& g = w.contact.grid;
@@ -72,29 +73,13 @@ void for_each_candidate(const WorldState& w, std::uint32_t i, std::uint64_t stam
     if (b.alive[k]) marks[b.neighbor[k]] = stamp;
   const Vec3 yi = w.particles.position[i];
   const double reach2 = g.cell * g.cell;
-  for_each_near(g, yi, [&](std::uint32_t q) {
+  auto test = [&](std::uint32_t q) {
     const std::uint32_t j = g.sorted[q];
     if (j == i || (g.sorted_position[q] - yi).squaredNorm() >= reach2 || marks[j] == stamp) return;
     visit(j);
-  });
-}
-
-// for_each_candidate over the forward half of the neighbourhood only (for_each_near_forward): each
-// unbonded pair within reach is visited from exactly one of its ends.
-template <class Visit>
-void for_each_forward_candidate(const WorldState& w, std::uint32_t i, std::uint64_t stamp, std::uint64_t* marks,
-                                Visit&& visit) {
-  const auto& g = w.contact.grid;
-  const auto& b = w.bonds;
-  for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k)
-    if (b.alive[k]) marks[b.neighbor[k]] = stamp;
-  const Vec3 yi = w.particles.position[i];
-  const double reach2 = g.cell * g.cell;
-  for_each_near_forward(g, yi, i, [&](std::uint32_t q) {
-    const std::uint32_t j = g.sorted[q];
-    if ((g.sorted_position[q] - yi).squaredNorm() >= reach2 || marks[j] == stamp) return;
-    visit(j);
-  });
+  };
+  if constexpr (kForwardHalf) for_each_near_forward(g, yi, i, test);
+  else for_each_near(g, yi, test);
 }
 
 // The calling worker's row of the bonded-partner marks.
@@ -295,7 +280,7 @@ void rebuild_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& centroid
   parallel_for_each(n, [&](std::size_t i) {
     std::uint32_t count = 0;
     std::uint32_t* row = pr.scratch.data() + i * cap;
-    for_each_forward_candidate(w, static_cast<std::uint32_t>(i), search_base + i + 1, stamp_row(pr, n),
+    for_each_candidate<true>(w, static_cast<std::uint32_t>(i), search_base + i + 1, stamp_row(pr, n),
                                [&](std::uint32_t j) {
                                  if (count < cap) row[count] = j;
                                  ++count;
@@ -313,7 +298,7 @@ void rebuild_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& centroid
       std::copy_n(pr.scratch.data() + i * cap, pr.count[i], forward.data() + q);
       return;
     }
-    for_each_forward_candidate(w, static_cast<std::uint32_t>(i), fill_base + i + 1, stamp_row(pr, n),
+    for_each_candidate<true>(w, static_cast<std::uint32_t>(i), fill_base + i + 1, stamp_row(pr, n),
                                [&](std::uint32_t j) { forward[q++] = j; });
   }, 1024);
   // 4. Both sides (serial over the pairs, in index order): particle j's list is the particles i < …

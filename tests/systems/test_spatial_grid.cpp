@@ -1,0 +1,49 @@
+// Spatial hash grid (systems/spatial_grid.hpp): the neighbourhood visits against brute force.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <random>
+#include <utility>
+#include <vector>
+
+#include "systems/spatial_grid.hpp"
+
+using namespace perifx;
+
+TEST_CASE("spatial grid: the forward half-neighbourhood visits every pair within reach exactly once") {
+  // Points in a small box (so many share cells, and cells hash onto each other in a small table),
+  // with a tight cluster and far outliers. A search of every point over its forward half must visit
+  // each pair closer than the reach once, from one end: the contact list's full rebuild relies on it.
+  std::mt19937_64 rng(12345);
+  std::uniform_real_distribution<double> u(-0.05, 0.05);
+  std::vector<Vec3> points;
+  for (int i = 0; i < 1500; ++i) points.emplace_back(u(rng), u(rng), u(rng));
+  for (int i = 0; i < 100; ++i) points.emplace_back(1e-3 * u(rng), 1e-3 * u(rng), 1e-3 * u(rng));
+  points.emplace_back(40.0, -3.0, 7.0);
+  points.emplace_back(40.001, -3.0, 7.0);
+  const double reach = 0.013;
+  SpatialGrid g;
+  systems::allocate_grid(g, points.size(), reach);
+  systems::build_grid(g, points);
+
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> forward, full, brute;
+  for (std::uint32_t i = 0; i < points.size(); ++i) {
+    systems::for_each_near_forward(g, points[i], i, [&](std::uint32_t q) {
+      const std::uint32_t j = g.sorted[q];
+      CHECK(j != i);
+      if ((points[j] - points[i]).squaredNorm() < reach * reach) forward.emplace_back(std::min(i, j), std::max(i, j));
+    });
+    systems::for_each_near(g, points[i], [&](std::uint32_t q) {
+      const std::uint32_t j = g.sorted[q];
+      if (j > i && (points[j] - points[i]).squaredNorm() < reach * reach) full.emplace_back(i, j);
+    });
+    for (std::uint32_t j = i + 1; j < points.size(); ++j)
+      if ((points[j] - points[i]).squaredNorm() < reach * reach) brute.emplace_back(i, j);
+  }
+  std::sort(forward.begin(), forward.end());
+  std::sort(full.begin(), full.end());
+  CHECK(brute.size() > 2000);  // the test exercises many pairs
+  CHECK(std::adjacent_find(forward.begin(), forward.end()) == forward.end());  // none twice
+  CHECK(forward == brute);
+  CHECK(full == brute);
+}
