@@ -22,10 +22,13 @@ struct ContactPairs {
   std::vector<std::uint32_t> offsets;      // particles + 1
   std::vector<std::uint32_t> neighbor;     // candidates of i: neighbor[offsets[i], offsets[i+1])
   std::vector<std::uint32_t> count;        // particles: scratch for the build (candidates per particle)
-  std::vector<std::uint32_t> scratch;      // particles × kScratchPerParticle: the build's first pass
-                                           // keeps up to that many candidates per particle here, so
-                                           // only particles with more need a second search
-  static constexpr std::uint32_t kScratchPerParticle = 32;
+  std::vector<std::uint32_t> scratch;      // particles × kScratchPerParticle: a search's first pass
+                                           // keeps up to that many finds per searched particle here,
+                                           // so only particles with more need a second search. The
+                                           // full rebuild's forward half-search (a few finds each) uses
+                                           // one row per particle; the moved-particle update (at most
+                                           // particles/8 of them) two rows per moved particle.
+  static constexpr std::uint32_t kScratchPerParticle = 16;
   std::vector<Vec3> built_position;        // per particle: position minus the centroid of all
                                            // particles, at the particle's last search, m
   // The moved-particle update's buffers (sized at setup; only the CSR arrays grow, when they outgrow

@@ -179,8 +179,10 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
   for (std::size_t i = 0; i < n; ++i)
     if (pr.moved[i]) pr.moved_list.push_back(static_cast<std::uint32_t>(i));
   const std::size_t m = pr.moved_list.size();
-  // 1. Search from every moved particle: count, keeping the first kScratchPerParticle in its scratch row.
-  constexpr std::uint32_t cap = ContactPairs::kScratchPerParticle;
+  // 1. Search from every moved particle: count, keeping the first `cap` finds in its scratch row (row a
+  // of the moved list; two particle rows each, which fit: an update has at most n/kFullRebuildShare).
+  const std::uint32_t cap = static_cast<std::uint32_t>(
+      std::min<std::size_t>(2 * ContactPairs::kScratchPerParticle, pr.scratch.size() / std::max<std::size_t>(m, 1)));
   const std::uint64_t search_base = pr.stamp_base, fill_base = search_base + n + 1;
   if (m > 0) {
     build_grid(c.grid, p.position);
@@ -189,7 +191,7 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
   parallel_for_each(m, [&](std::size_t a) {
     const std::uint32_t i = pr.moved_list[a];
     std::uint32_t count = 0;
-    std::uint32_t* row = pr.scratch.data() + std::size_t(i) * cap;
+    std::uint32_t* row = pr.scratch.data() + a * cap;
     for_each_candidate(w, i, search_base + i + 1, stamp_row(pr, n), [&](std::uint32_t j) {
       if (count < cap) row[count] = j;
       ++count;
@@ -203,7 +205,7 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
     const std::uint32_t i = pr.moved_list[a];
     std::uint32_t q = pr.moved_offsets[a];
     if (pr.count[i] <= cap) {
-      std::copy_n(pr.scratch.data() + std::size_t(i) * cap, pr.count[i], pr.moved_neighbor.data() + q);
+      std::copy_n(pr.scratch.data() + a * cap, pr.count[i], pr.moved_neighbor.data() + q);
       return;
     }
     for_each_candidate(w, i, fill_base + i + 1, stamp_row(pr, n), [&](std::uint32_t j) { pr.moved_neighbor[q++] = j; });
