@@ -303,8 +303,8 @@ void rebuild_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& centroid
     for_each_candidate<true>(w, static_cast<std::uint32_t>(i), fill_base + i + 1, stamp_row(pr, n),
                                [&](std::uint32_t j) { forward[q++] = j; });
   }, 1024);
-  // 4. Both sides (serial over the pairs, in index order): particle j's list is the particles i < …
-  // that found j, in increasing i, then j's own finds in visit order. found_by[j] counts, then writes.
+  // 4. Both sides (serial over the pairs, in index order): particle j's list is the particles that
+  // found j, in increasing index, then j's own finds in visit order. found_by[j] counts, then writes.
   std::fill(pr.found_by.begin(), pr.found_by.end(), 0u);
   for (std::uint32_t q = 0; q < forward_offsets[n]; ++q) ++pr.found_by[forward[q]];
   pr.offsets[0] = 0;
