@@ -62,7 +62,7 @@ struct DerivedFields {
 // The scene's settings the step reads, resolved once when the world is built.
 struct StepSettings {
   Vec3 gravity = Vec3::Zero();                       // m/s²
-  scene::Normalization normalization = scene::Normalization::paper;
+  scene::Normalization normalization = scene::Normalization::corrected;
   scene::FamilyRule family = scene::FamilyRule::mesh;
   scene::Solver solver = scene::Solver::peridynamics;
   std::vector<scene::Material> materials;            // indexed by Particles::material_id

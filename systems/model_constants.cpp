@@ -33,7 +33,17 @@
 namespace perifx::systems {
 
 namespace {
-constexpr double kSurfaceExponent = 0.3;  // `corrected`: p in (m_i/m_body)^p, calibrated (§2.4)
+// `corrected` (§2.4): a particle whose family is cut by a free surface has its dilatational constant
+// a, its deviatoric constant b and its dilatation scale c multiplied by (m_i/m_body)^p, one exponent
+// each. Calibrated against the converged continuum reference (assets/report/accuracy.md, issue 12.2):
+// b's exponent sets torsion, a's the lateral contraction at high ν, c's at low ν; bending needs all
+// three. One exponent for all three cannot fit bending and contraction at once.
+struct SurfaceExponents {
+  double bulk = 0.8;        // on a
+  double shear = 0.285;     // on b
+  double dilatation = 0.35; // on c, the θ scale
+};
+constexpr SurfaceExponents kSurfaceExponents{};
 }
 
 double critical_stretch_from_energy(double fracture_energy, double kappa, double mu, double horizon) {
@@ -60,11 +70,10 @@ void compute_model_constants(WorldState& w) {
   md.critical_stretch.resize(n);
   md.damage_alpha.resize(n);
   const bool discrete = w.settings.normalization != scene::Normalization::paper;
-  // `corrected`: the discrete constants a, b scaled by (m_i / m_body)^p, m_body the largest weighted
-  // volume of the particle's body (a full interior family), §2.4.
+  // `corrected`: the discrete constants a, b, c scaled by powers of m_i / m_body, m_body the largest
+  // weighted volume of the particle's body (a full interior family), §2.4.
   const bool corrected = w.settings.normalization == scene::Normalization::corrected;
   std::vector<double> body_m;
-  const double exponent = kSurfaceExponent;
   if (corrected) {
     std::vector<double> m_i(n, 0.0);
     parallel_for_each(n, [&](std::size_t i) {
@@ -106,9 +115,10 @@ void compute_model_constants(WorldState& w) {
         beta = q / (3.0 * m);
         b = mu / (2.0 * shear_moment);
         if (corrected) {
-          const double f = std::pow(m / body_m[w.particles.body_id[i]], exponent);
-          a *= f;
-          b *= f;
+          const double fill = m / body_m[w.particles.body_id[i]];  // 1 inside, ≈ ½ on a face
+          a *= std::pow(fill, kSurfaceExponents.bulk);
+          b *= std::pow(fill, kSurfaceExponents.shear);
+          scale *= std::pow(fill, kSurfaceExponents.dilatation);
         }
       } else {  // an isolated particle carries no elastic force
         scale = a = b = beta = 0.0;

@@ -553,8 +553,9 @@ int main(int argc, char** argv) {
   app.add_subcommand("spec", "print the scene format reference (markdown)");
   CLI::App* compare = app.add_subcommand(
       "compare", "position deviation of run B from reference run A per frame, over A's bounding-box diagonal at "
-                 "frame 0 (paper §6); writes RUN_A/compare.csv. Same scene; an FEM run may also be of a finer "
-                 "mesh (interpolated)");
+                 "frame 0 (paper §6), at the frame times both runs share; writes RUN_A/compare.csv. Same body; "
+                 "the runs may differ in resolution (a preview against its final: the finer run is fitted at the "
+                 "coarser run's particles) or solver (an FEM run is interpolated in its tets)");
   compare->add_option("RUN_A", a.scene, "reference run directory")->required();
   compare->add_option("RUN_B", a.second, "compared run directory")->required();
 

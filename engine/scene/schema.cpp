@@ -346,7 +346,8 @@ Key build_spec() {
       object("model", "model", "Peridynamic model options.", {
           choice("normalization", {"paper", "discrete", "corrected"},
                  "Normalization (systems/README.md §2.4): the paper's constants (Eq 6, 10), per-particle "
-                 "discrete sums, or the discrete sums with a surface correction.").def("paper"),
+                 "discrete sums, or the discrete sums with a surface correction (the default: the most accurate at coarse "
+                 "resolution; the paper scenes choose `paper`).").def("corrected"),
           choice("family", {"mesh", "distance"},
                  "Bond family: distance plus mesh face-connectivity, or distance only.").def("mesh"),
           choice("solver", {"peridynamics", "fem_linear", "fem_corotated"},

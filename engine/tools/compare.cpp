@@ -14,6 +14,7 @@
 #include "components/math.hpp"
 #include "io/atomic.hpp"
 #include "io/run_dir.hpp"
+#include "systems/spatial_grid.hpp"
 
 namespace perifx {
 namespace fs = std::filesystem;
@@ -159,6 +160,76 @@ std::vector<Vec3> interpolate(const std::vector<Vec3>& vertices, const Embedding
   return out;
 }
 
+// Two particle runs of one body at different resolutions (a preview against its final): run F's
+// (the finer) particle motion evaluated at run C's frame-0 points by a weighted least-squares affine
+// fit over F's particles within `reach` of the point, weights (1 − r²/reach²)². The fit is linear in
+// F's positions, so it is stored once as coefficients: point p = Σ_k coefficient[k] · F[index[k]],
+// offsets[p] ≤ k < offsets[p+1]. Σ c = 1 and Σ c (x_k − p) = 0, so any affine motion of F (a rigid
+// translation or rotation, a uniform strain) is reproduced exactly, and frame 0 gives p itself.
+struct PointFit {
+  std::vector<std::uint32_t> offsets{0}, index;
+  std::vector<double> coefficient;
+};
+
+PointFit fit_points(const std::vector<Vec3>& points, const std::vector<Vec3>& source, const fs::path& dir) {
+  // Reach: 2.5 mean spacings of the source, from its bounding box (an over-estimate for a body that
+  // fills its box poorly, which only widens the fit); doubled for a point with too few neighbours.
+  Vec3 lo = Vec3::Constant(kInfinity), hi = -lo;
+  for (const auto& v : source) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  const Vec3 ext = (hi - lo).cwiseMax(Vec3::Constant(1e-9 * (1.0 + (hi - lo).norm())));
+  const double spacing = std::cbrt(ext.prod() / double(std::max<std::size_t>(source.size(), 1)));
+  PointFit fit;
+  constexpr std::size_t kMinNeighbours = 12;
+  for (double reach = 2.5 * spacing; fit.offsets.size() <= points.size(); reach *= 2.0) {
+    if (reach > 64.0 * spacing + ext.norm())
+      throw CompareError(dir.string() + ": too few particles near point " + std::to_string(fit.offsets.size() - 1) +
+                         " of the other run to interpolate its motion");
+    SpatialGrid grid;
+    systems::allocate_grid(grid, source.size(), reach);
+    systems::build_grid(grid, source);
+    std::vector<std::uint32_t> near;
+    std::vector<double> weight;
+    while (fit.offsets.size() <= points.size()) {
+      const Vec3& x = points[fit.offsets.size() - 1];
+      near.clear();
+      weight.clear();
+      systems::for_each_near(grid, x, [&](std::uint32_t q) {
+        const double r2 = (grid.sorted_position[q] - x).squaredNorm() / (reach * reach);
+        if (r2 < 1.0) near.push_back(grid.sorted[q]), weight.push_back((1.0 - r2) * (1.0 - r2));
+      });
+      if (near.size() < kMinNeighbours) break;  // widen the reach for this point and the rest
+      // Normal equations of the affine fit, coordinates relative to x and scaled by the reach.
+      Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+      for (std::size_t k = 0; k < near.size(); ++k) {
+        const Eigen::Vector4d row(1.0, (source[near[k]] - x).x() / reach, (source[near[k]] - x).y() / reach,
+                                  (source[near[k]] - x).z() / reach);
+        m += weight[k] * row * row.transpose();
+      }
+      const Eigen::FullPivLU<Eigen::Matrix4d> lu(m);
+      if (lu.rank() < 4) break;  // neighbours on a plane or a line: widen
+      const Eigen::Vector4d first = lu.inverse().row(0).transpose();  // m is symmetric
+      for (std::size_t k = 0; k < near.size(); ++k) {
+        const Eigen::Vector4d row(1.0, (source[near[k]] - x).x() / reach, (source[near[k]] - x).y() / reach,
+                                  (source[near[k]] - x).z() / reach);
+        fit.index.push_back(near[k]);
+        fit.coefficient.push_back(weight[k] * first.dot(row));
+      }
+      fit.offsets.push_back(std::uint32_t(fit.index.size()));
+    }
+  }
+  return fit;
+}
+
+std::vector<Vec3> interpolate(const std::vector<Vec3>& source, const PointFit& fit) {
+  std::vector<Vec3> out(fit.offsets.size() - 1);
+  for (std::size_t p = 0; p < out.size(); ++p) {
+    Vec3 x = Vec3::Zero();
+    for (std::uint32_t k = fit.offsets[p]; k < fit.offsets[p + 1]; ++k) x += fit.coefficient[k] * source[fit.index[k]];
+    out[p] = x;
+  }
+  return out;
+}
+
 }  // namespace
 
 CompareResult compare_runs(const fs::path& dir_a, const fs::path& dir_b) {
@@ -175,26 +246,34 @@ CompareResult compare_runs(const fs::path& dir_a, const fs::path& dir_b) {
   if (!(r.diagonal > 0.0)) throw CompareError(dir_a.string() + ": frame 0 has a zero bounding box");
 
   // How each run's frame points become the compared points.
-  enum class Map { direct, barycenters, interpolated };
+  enum class Map { direct, barycenters, interpolated, fitted };
   Map map_a = Map::direct, map_b = Map::direct;
   Embedding embedding;  // for Map::interpolated
+  PointFit point_fit;   // for Map::fitted
   double frame0_tolerance = 1e-9;
   if (ma.present && mb.present && ma.hash != mb.hash) {
     // Different meshes (e.g. a finer FEM reference): an FEM run's displacement field is linear in
     // each tet, so it can be evaluated anywhere in the body. Interpolate the FEM run (A when it is
     // one, else B) at the other run's frame-0 points.
-    if (ma.tets.empty() && mb.tets.empty())
-      throw CompareError("the runs are not of the same tet mesh: " + dir_a.string() + " has " + std::to_string(ma.tet_count) +
-                         " tets (hash " + ma.hash + "), " + dir_b.string() + " has " + std::to_string(mb.tet_count) +
-                         " tets (hash " + mb.hash + ") and neither is an FEM run that could be interpolated; compare "
-                         "runs of the same scene and resolution, or use an FEM run as one side");
-    const bool on_a = !ma.tets.empty();
-    embedding = on_a ? embed(b0, a0, ma, dir_a) : embed(a0, b0, mb, dir_b);
-    (on_a ? map_a : map_b) = Map::interpolated;
-    r.mapping = std::string("the meshes differ: run ") + (on_a ? "A" : "B") +
-                "'s FEM field interpolated (linear in each of its tets) at run " + (on_a ? "B" : "A") +
-                "'s frame-0 points; points outside that mesh (curved boundaries) take the nearest tet and are "
-                "compared by motion (their frame-0 offset subtracted)";
+    if (ma.tets.empty() && mb.tets.empty()) {
+      // Two particle runs of different resolutions (a preview and its final): the finer run's
+      // motion, fitted locally, at the coarser run's particles.
+      const bool on_a = a0.size() >= b0.size();
+      point_fit = on_a ? fit_points(b0, a0, dir_a) : fit_points(a0, b0, dir_b);
+      (on_a ? map_a : map_b) = Map::fitted;
+      r.mapping = std::string("the runs differ in resolution: run ") + (on_a ? "A" : "B") + "'s particle motion (" +
+                  std::to_string(on_a ? a0.size() : b0.size()) + " particles) fitted locally (weighted least-squares "
+                  "affine, exact for any affine motion) at run " + (on_a ? "B" : "A") + "'s " +
+                  std::to_string(on_a ? b0.size() : a0.size()) + " frame-0 points";
+    } else {
+      const bool on_a = !ma.tets.empty();
+      embedding = on_a ? embed(b0, a0, ma, dir_a) : embed(a0, b0, mb, dir_b);
+      (on_a ? map_a : map_b) = Map::interpolated;
+      r.mapping = std::string("the meshes differ: run ") + (on_a ? "A" : "B") +
+                  "'s FEM field interpolated (linear in each of its tets) at run " + (on_a ? "B" : "A") +
+                  "'s frame-0 points; points outside that mesh (curved boundaries) take the nearest tet and are "
+                  "compared by motion (their frame-0 offset subtracted)";
+    }
     // Same body meshed twice: the points lie in the other mesh up to its curved-boundary facets.
     frame0_tolerance = 0.02;
   } else {
@@ -211,6 +290,7 @@ CompareResult compare_runs(const fs::path& dir_a, const fs::path& dir_b) {
     auto pts = read_vtu_points(s.files[k]);
     if (map == Map::barycenters) return barycenters(pts, m, dir);
     if (map == Map::interpolated) return interpolate(pts, embedding);
+    if (map == Map::fitted) return interpolate(pts, point_fit);
     return pts;
   };
 
@@ -218,23 +298,34 @@ CompareResult compare_runs(const fs::path& dir_a, const fs::path& dir_b) {
   // field is evaluated (its clamped weights); that offset is geometry, not motion, so it is
   // subtracted from every frame. Zero for points inside the mesh (all of them for a box).
   std::vector<Vec3> offset;
-  const std::size_t frames = std::min(sa.files.size(), sb.files.size());
-  const double spacing = frames > 1 ? std::abs(sa.times[1] - sa.times[0]) : 1.0;
+  const bool resampled = map_a == Map::interpolated || map_b == Map::interpolated || map_a == Map::fitted ||
+                         map_b == Map::fitted;
+  // Frames are paired by time: each of A's frames with B's frame at the same time (within 1% of the
+  // coarser frame spacing), so runs of different frame rates or lengths compare at their common times.
+  auto spacing_of = [](const Series& s) { return s.times.size() > 1 ? std::abs(s.times[1] - s.times[0]) : 0.0; };
+  const double spacing = std::max(spacing_of(sa), spacing_of(sb));
+  std::vector<std::pair<std::size_t, std::size_t>> pairs;
+  for (std::size_t ka = 0, kb = 0; ka < sa.times.size() && kb < sb.times.size();) {
+    const double d = sa.times[ka] - sb.times[kb];
+    if (std::abs(d) <= 0.01 * spacing + 1e-12) pairs.emplace_back(ka++, kb++);
+    else if (d < 0) ++ka;
+    else ++kb;
+  }
+  if (pairs.empty() || pairs.front() != std::pair<std::size_t, std::size_t>{0, 0})
+    throw CompareError(dir_a.string() + " and " + dir_b.string() + " have no common first frame (t = " +
+                       std::to_string(sa.times[0]) + " s and t = " + std::to_string(sb.times[0]) +
+                       " s); compare runs that start together");
   double sum_all = 0.0;
   std::size_t count_all = 0;
-  for (std::size_t k = 0; k < frames; ++k) {
-    if (std::abs(sa.times[k] - sb.times[k]) > 0.01 * spacing + 1e-12)
-      throw CompareError("frame " + std::to_string(k) + " is at t = " + std::to_string(sa.times[k]) + " s in " +
-                         dir_a.string() + " but t = " + std::to_string(sb.times[k]) + " s in " + dir_b.string() +
-                         "; the runs need the same frame rate");
-    const auto pa = points_of(sa, k, map_a, ma, dir_a);
-    const auto pb = points_of(sb, k, map_b, mb, dir_b);
+  for (const auto& [ka, kb] : pairs) {
+    const auto pa = points_of(sa, ka, map_a, ma, dir_a);
+    const auto pb = points_of(sb, kb, map_b, mb, dir_b);
     if (pa.size() != pb.size())
-      throw CompareError("frame " + std::to_string(k) + ": " + std::to_string(pa.size()) + " points in " + dir_a.string() +
+      throw CompareError("frame " + std::to_string(ka) + ": " + std::to_string(pa.size()) + " points in " + dir_a.string() +
                          " vs " + std::to_string(pb.size()) + " in " + dir_b.string() +
                          (ma.present && mb.present ? "" : " (a run without mesh.json cannot be mapped)") +
                          "; compare runs of the same scene and resolution");
-    if (k == 0) {
+    if (ka == 0) {
       r.points = pa.size();
       // Same scene ⇒ identical reference positions (up to the VTU's exact doubles and the 1/4 mean);
       // different meshes of one body ⇒ the same up to curved-boundary facets.
@@ -243,16 +334,15 @@ CompareResult compare_runs(const fs::path& dir_a, const fs::path& dir_b) {
       if (worst > frame0_tolerance * r.diagonal)
         throw CompareError("frame 0 differs by up to " + std::to_string(worst / r.diagonal) +
                            " of the diagonal: the runs do not start from the same " +
-                           (map_a == Map::interpolated || map_b == Map::interpolated ? "body (same scene?)"
-                                                                                        : "mesh (same scene and resolution?)"));
-      if (map_a == Map::interpolated || map_b == Map::interpolated) {
+                           (resampled ? "body (same scene?)" : "mesh (same scene and resolution?)"));
+      if (resampled) {
         offset.resize(pa.size());
         for (std::size_t i = 0; i < pa.size(); ++i) offset[i] = pa[i] - pb[i];
       }
     }
     CompareFrame f;
-    f.time_a = sa.times[k];
-    f.time_b = sb.times[k];
+    f.time_a = sa.times[ka];
+    f.time_b = sb.times[kb];
     double sum = 0.0;
     for (std::size_t i = 0; i < pa.size(); ++i) {
       Vec3 d = pa[i] - pb[i];

@@ -7,8 +7,13 @@
 //   Different meshes of one body (e.g. a finer FEM reference): the FEM run's field, linear in each
 //   of its tets, is interpolated at the other run's frame-0 points (barycentric weights found once,
 //   at frame 0; points outside the mesh, on curved boundaries, take the nearest tet's clamped
-//   weights and are compared by motion: their frame-0 offset is subtracted). Needs an FEM run on
-//   one side (A preferred); two PD runs of different meshes are refused.
+//   weights and are compared by motion: their frame-0 offset is subtracted).
+//   Two PD runs of different meshes (a preview against its final): the finer run's particle motion
+//   is fitted locally (weighted least-squares affine over its particles near each point, exact for
+//   any affine motion) at the coarser run's frame-0 particles. Across an open crack the fit mixes
+//   both sides, so after fracture the figure also measures how far the crack patterns differ.
+// Frames are paired by time, so runs of different frame rates or durations compare at the times
+// they share (both must start at the same time).
 // Each run directory has particles.pvd + particles.NNNN.vtu (runner) and mesh.json (written by
 // io::write_run_mesh at the start of a run); both are read through io/run_dir.hpp.
 #pragma once
@@ -36,7 +41,7 @@ struct CompareResult {
   double diagonal = 0.0;        // d, m: bounding-box diagonal of run A at frame 0
   std::vector<CompareFrame> frames;
   double max_error = 0.0, mean_error = 0.0;  // over all frames and points
-  std::size_t frames_a = 0, frames_b = 0;    // frames in each series (compared: the common prefix)
+  std::size_t frames_a = 0, frames_b = 0;    // frames in each series (compared: those at common times)
 };
 
 // Compares run B against reference run A. Throws CompareError with a clear message when a run

@@ -45,7 +45,9 @@ TEST_CASE("rigid translation and rotation give zero internal force") {
 }
 
 TEST_CASE("paper normalization: uniform stretch gives theta = 3 eps V_H / (4 pi delta^3 / 3) for every particle") {
-  World world(test::box_scene(kSize, kCell, kKappa, kMu));
+  auto sc = test::box_scene(kSize, kCell, kKappa, kMu);
+  sc.normalization = scene::Normalization::paper;  // the paper's θ scale (the default is `corrected`)
+  World world(sc);
   const double eps = 1e-3;
   const auto ev = test::evaluate(world, mapped(world, [&](const Vec3& x) { return Vec3((1 + eps) * x); }));
   const WorldState& w = world.state();

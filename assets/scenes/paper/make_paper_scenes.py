@@ -93,6 +93,9 @@ def scene(name, variant, description, dt, duration, frame_rate, materials, bodie
          "time": {"dt": dt, "duration": duration, "frame_rate": frame_rate},
          "materials": materials, "bodies": bodies}
     s.update(extra)
+    # The paper's own constants (Eq 6, 10), which these scenes reproduce; perifx's default for scenes
+    # that do not choose is the accurate `corrected` normalization (systems/README.md §2.4).
+    s.setdefault("model", {}).setdefault("normalization", "paper")
     s["output"] = {"directory": f"out/paper/{name}.{variant}",
                    "formats": ["vtu", "ply"] + (["obj", "surface_ply"] if surfaces else [])}
     return s

@@ -237,7 +237,7 @@ TEST_CASE("scene: omitted keys take their documented defaults") {
   CHECK(s.gravity == Vec3(0, -9.81, 0));
   CHECK(s.time.duration == 1.0);
   CHECK(s.time.frame_rate == 24.0);
-  CHECK(s.normalization == Normalization::paper);
+  CHECK(s.normalization == Normalization::corrected);
   CHECK(s.family == FamilyRule::mesh);
   const Material& m = s.materials[0];
   CHECK(m.density == 1000);
