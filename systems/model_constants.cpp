@@ -12,8 +12,8 @@
 //
 // Physical fracture and yield parameters (systems/README.md §12), converted here for each particle's
 // horizon δ (so one scene breaks and yields alike at any resolution):
-//   G_c → s_c = √(G_c / (K δ)),  K = 5μ + (81/80)(κ − 5μ/3)    (energy of the bonds crossing a unit
-//         area when each is at the break extension s_c δ; §12.1)
+//   G_c → s_c = √(G_c / (C K δ)),  K = 5μ + (81/80)(κ − 5μ/3)  (energy of the bonds crossing a unit
+//         area when each is at the break extension s_c δ; C = kFractureEnergyFactor, measured; §12.1)
 //   σ_y → A_c = √(2Ψ0) = σ_y / S_i,  S_i = ½ Σ_j |3 c_a² − 1|/2 |ξ| V_j (mean over axes a, c_a = ξ_a/|ξ|)
 //         (flow stress of the per-bond return under sustained uniaxial plastic flow; §12.2); in the
 //         continuum S = πδ⁴/(3√3) and, with the paper's b, Y = A_c/(b4 δ) = √3 σ_y/(10 μ).
@@ -49,7 +49,7 @@ constexpr SurfaceExponents kSurfaceExponents{};
 double critical_stretch_from_energy(double fracture_energy, double kappa, double mu, double horizon) {
   if (!std::isfinite(fracture_energy)) return kInfinity;
   const double k = 5.0 * mu + (81.0 / 80.0) * (kappa - 5.0 * mu / 3.0);  // > 0 for any κ, μ > 0
-  return std::sqrt(fracture_energy / (k * horizon));
+  return std::sqrt(fracture_energy / (kFractureEnergyFactor * k * horizon));
 }
 
 double yield_extension_from_stress(double yield_stress, double mu) {

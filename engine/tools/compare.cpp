@@ -171,7 +171,12 @@ struct PointFit {
   std::vector<double> coefficient;
 };
 
-PointFit fit_points(const std::vector<Vec3>& points, const std::vector<Vec3>& source, const fs::path& dir) {
+PointFit fit_points(const std::vector<Vec3>& points, const std::vector<std::uint32_t>& point_material,
+                    const std::vector<Vec3>& source, const std::vector<std::uint32_t>& source_material,
+                    const fs::path& dir) {
+  // A point takes only particles of its own material (when both runs wrote it): a bullet's particle
+  // must not be fitted from the jello around it.
+  const bool by_material = point_material.size() == points.size() && source_material.size() == source.size();
   // Reach: 2.5 mean spacings of the source, from its bounding box (an over-estimate for a body that
   // fills its box poorly, which only widens the fit); doubled for a point with too few neighbours.
   Vec3 lo = Vec3::Constant(kInfinity), hi = -lo;
@@ -182,8 +187,8 @@ PointFit fit_points(const std::vector<Vec3>& points, const std::vector<Vec3>& so
   constexpr std::size_t kMinNeighbours = 12;
   for (double reach = 2.5 * spacing; fit.offsets.size() <= points.size(); reach *= 2.0) {
     if (reach > 64.0 * spacing + ext.norm())
-      throw CompareError(dir.string() + ": too few particles near point " + std::to_string(fit.offsets.size() - 1) +
-                         " of the other run to interpolate its motion");
+      throw CompareError(dir.string() + ": too few particles (of the same material) near point " +
+                         std::to_string(fit.offsets.size() - 1) + " of the other run to interpolate its motion");
     SpatialGrid grid;
     systems::allocate_grid(grid, source.size(), reach);
     systems::build_grid(grid, source);
@@ -195,7 +200,8 @@ PointFit fit_points(const std::vector<Vec3>& points, const std::vector<Vec3>& so
       weight.clear();
       systems::for_each_near(grid, x, [&](std::uint32_t q) {
         const double r2 = (grid.sorted_position[q] - x).squaredNorm() / (reach * reach);
-        if (r2 < 1.0) near.push_back(grid.sorted[q]), weight.push_back((1.0 - r2) * (1.0 - r2));
+        if (r2 < 1.0 && (!by_material || source_material[grid.sorted[q]] == point_material[fit.offsets.size() - 1]))
+          near.push_back(grid.sorted[q]), weight.push_back((1.0 - r2) * (1.0 - r2));
       });
       if (near.size() < kMinNeighbours) break;  // widen the reach for this point and the rest
       // Normal equations of the affine fit, coordinates relative to x and scaled by the reach.
@@ -259,7 +265,11 @@ CompareResult compare_runs(const fs::path& dir_a, const fs::path& dir_b) {
       // Two particle runs of different resolutions (a preview and its final): the finer run's
       // motion, fitted locally, at the coarser run's particles.
       const bool on_a = a0.size() >= b0.size();
-      point_fit = on_a ? fit_points(b0, a0, dir_a) : fit_points(a0, b0, dir_b);
+      const auto material = [&](const Series& series) {
+        return reading([&] { return io::read_particle_frame(series.files[0]); }).material;
+      };
+      point_fit = on_a ? fit_points(b0, material(sb), a0, material(sa), dir_a)
+                       : fit_points(a0, material(sa), b0, material(sb), dir_b);
       (on_a ? map_a : map_b) = Map::fitted;
       r.mapping = std::string("the runs differ in resolution: run ") + (on_a ? "A" : "B") + "'s particle motion (" +
                   std::to_string(on_a ? a0.size() : b0.size()) + " particles) fitted locally (weighted least-squares "

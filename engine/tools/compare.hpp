@@ -9,8 +9,8 @@
 //   at frame 0; points outside the mesh, on curved boundaries, take the nearest tet's clamped
 //   weights and are compared by motion: their frame-0 offset is subtracted).
 //   Two PD runs of different meshes (a preview against its final): the finer run's particle motion
-//   is fitted locally (weighted least-squares affine over its particles near each point, exact for
-//   any affine motion) at the coarser run's frame-0 particles. Across an open crack the fit mixes
+//   is fitted locally (weighted least-squares affine over its particles of the same material near
+//   each point, exact for any affine motion) at the coarser run's frame-0 particles. Across an open crack the fit mixes
 //   both sides, so after fracture the figure also measures how far the crack patterns differ.
 // Frames are paired by time, so runs of different frame rates or durations compare at the times
 // they share (both must start at the same time).
