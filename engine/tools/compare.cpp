@@ -46,10 +46,19 @@ std::vector<Vec3> read_vtu_points(const fs::path& file) {
   return reading([&] { return io::read_particle_frame(file); }).position;
 }
 
+// Axis-aligned bounding box of a point set.
+struct Box {
+  Vec3 lo = Vec3::Constant(kInfinity), hi = Vec3::Constant(-kInfinity);
+};
+Box bounds(const std::vector<Vec3>& pts) {
+  Box b;
+  for (const auto& p : pts) b.lo = b.lo.cwiseMin(p), b.hi = b.hi.cwiseMax(p);
+  return b;
+}
+
 double diagonal_of(const std::vector<Vec3>& pts) {
-  Vec3 lo = Vec3::Constant(kInfinity), hi = -lo;
-  for (const auto& p : pts) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-  return (hi - lo).norm();
+  const Box b = bounds(pts);
+  return (b.hi - b.lo).norm();
 }
 
 std::vector<Vec3> barycenters(const std::vector<Vec3>& vertices, const RunMesh& m, const fs::path& dir) {
@@ -96,8 +105,7 @@ Embedding embed(const std::vector<Vec3>& points, const std::vector<Vec3>& vertic
         throw CompareError(dir.string() + ": mesh.json tet " + std::to_string(t) + " names vertex " + std::to_string(v) +
                            " but the frames have " + std::to_string(vertices.size()) + " points");
   // Uniform grid over the mesh's bounding box, ~1 tet per cell; each tet listed in the cells its box overlaps.
-  Vec3 lo = Vec3::Constant(kInfinity), hi = -lo;
-  for (const auto& v : vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  const auto [lo, hi] = bounds(vertices);
   const Vec3 ext = (hi - lo).cwiseMax(Vec3::Constant(1e-12 * (1.0 + (hi - lo).norm())));
   const double cell = std::cbrt(ext.prod() / double(std::max<std::size_t>(nt, 1)));
   std::array<long, 3> dim{};
@@ -179,8 +187,7 @@ PointFit fit_points(const std::vector<Vec3>& points, const std::vector<std::uint
   const bool by_material = point_material.size() == points.size() && source_material.size() == source.size();
   // Reach: 2.5 mean spacings of the source, from its bounding box (an over-estimate for a body that
   // fills its box poorly, which only widens the fit); doubled for a point with too few neighbours.
-  Vec3 lo = Vec3::Constant(kInfinity), hi = -lo;
-  for (const auto& v : source) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  const auto [lo, hi] = bounds(source);
   const Vec3 ext = (hi - lo).cwiseMax(Vec3::Constant(1e-9 * (1.0 + (hi - lo).norm())));
   const double spacing = std::cbrt(ext.prod() / double(std::max<std::size_t>(source.size(), 1)));
   PointFit fit;
@@ -194,6 +201,7 @@ PointFit fit_points(const std::vector<Vec3>& points, const std::vector<std::uint
     systems::build_grid(grid, source);
     std::vector<std::uint32_t> near;
     std::vector<double> weight;
+    std::vector<Eigen::Vector4d> rows;  // [1, (x_k − x)/reach] per neighbour
     while (fit.offsets.size() <= points.size()) {
       const Vec3& x = points[fit.offsets.size() - 1];
       near.clear();
@@ -206,19 +214,18 @@ PointFit fit_points(const std::vector<Vec3>& points, const std::vector<std::uint
       if (near.size() < kMinNeighbours) break;  // widen the reach for this point and the rest
       // Normal equations of the affine fit, coordinates relative to x and scaled by the reach.
       Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+      rows.clear();
       for (std::size_t k = 0; k < near.size(); ++k) {
-        const Eigen::Vector4d row(1.0, (source[near[k]] - x).x() / reach, (source[near[k]] - x).y() / reach,
-                                  (source[near[k]] - x).z() / reach);
-        m += weight[k] * row * row.transpose();
+        const Vec3 d = (source[near[k]] - x) / reach;
+        rows.emplace_back(1.0, d.x(), d.y(), d.z());
+        m += weight[k] * rows.back() * rows.back().transpose();
       }
       const Eigen::FullPivLU<Eigen::Matrix4d> lu(m);
       if (lu.rank() < 4) break;  // neighbours on a plane or a line: widen
       const Eigen::Vector4d first = lu.inverse().row(0).transpose();  // m is symmetric
       for (std::size_t k = 0; k < near.size(); ++k) {
-        const Eigen::Vector4d row(1.0, (source[near[k]] - x).x() / reach, (source[near[k]] - x).y() / reach,
-                                  (source[near[k]] - x).z() / reach);
         fit.index.push_back(near[k]);
-        fit.coefficient.push_back(weight[k] * first.dot(row));
+        fit.coefficient.push_back(weight[k] * first.dot(rows[k]));
       }
       fit.offsets.push_back(std::uint32_t(fit.index.size()));
     }
@@ -247,7 +254,11 @@ CompareResult compare_runs(const fs::path& dir_a, const fs::path& dir_b) {
   r.solver_b = mb.solver;
   r.frames_a = sa.files.size();
   r.frames_b = sb.files.size();
-  const std::vector<Vec3> a0 = read_vtu_points(sa.files[0]), b0 = read_vtu_points(sb.files[0]);
+  // Frame 0 of each run, read once: its points, and its materials for the resolution fit.
+  const io::ParticleFrame fa0 = reading([&] { return io::read_particle_frame(sa.files[0]); });
+  const io::ParticleFrame fb0 = reading([&] { return io::read_particle_frame(sb.files[0]); });
+  const std::vector<Vec3>& a0 = fa0.position;
+  const std::vector<Vec3>& b0 = fb0.position;
   r.diagonal = diagonal_of(a0);
   if (!(r.diagonal > 0.0)) throw CompareError(dir_a.string() + ": frame 0 has a zero bounding box");
 
@@ -265,11 +276,8 @@ CompareResult compare_runs(const fs::path& dir_a, const fs::path& dir_b) {
       // Two particle runs of different resolutions (a preview and its final): the finer run's
       // motion, fitted locally, at the coarser run's particles.
       const bool on_a = a0.size() >= b0.size();
-      const auto material = [&](const Series& series) {
-        return reading([&] { return io::read_particle_frame(series.files[0]); }).material;
-      };
-      point_fit = on_a ? fit_points(b0, material(sb), a0, material(sa), dir_a)
-                       : fit_points(a0, material(sa), b0, material(sb), dir_b);
+      point_fit = on_a ? fit_points(b0, fb0.material, a0, fa0.material, dir_a)
+                       : fit_points(a0, fa0.material, b0, fb0.material, dir_b);
       (on_a ? map_a : map_b) = Map::fitted;
       r.mapping = std::string("the runs differ in resolution: run ") + (on_a ? "A" : "B") + "'s particle motion (" +
                   std::to_string(on_a ? a0.size() : b0.size()) + " particles) fitted locally (weighted least-squares "
