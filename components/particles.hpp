@@ -12,7 +12,11 @@ namespace perifx {
 // Bit flags in Particles::flags.
 enum ParticleFlag : std::uint8_t {
   kAnchored = 1u << 0,      // position held at its reference value (a boundary condition)
-  kPrescribed = 1u << 1,    // velocity/displacement prescribed by a boundary condition this step
+  // The velocity components a boundary condition prescribes this step, one bit per world axis.
+  kPrescribedX = 1u << 1,
+  kPrescribedY = 1u << 2,
+  kPrescribedZ = 1u << 3,
+  kPrescribed = kPrescribedX | kPrescribedY | kPrescribedZ,  // test with & for any axis, == for all
 };
 
 struct Particles {

@@ -6,7 +6,9 @@
 //   displacement:  v = (x + u(t+dt) − y)/dt with u = r·(d + (R(r·angle) − I)(x − c)), exact target
 // r(t) ramps 0→1 over `ramp` seconds after `start`; outside [start, end) the condition is released
 // and the particles move freely with the velocity they have. Conditions apply in scene order, so the
-// last one wins where regions overlap. Every particle is written by one task: deterministic.
+// last one wins where regions overlap (per axis). A condition limited to some world axes (`axes`)
+// writes only those velocity components and sets only their kPrescribed{X,Y,Z} bits; integration
+// goes on kicking the others. Every particle is written by one task: deterministic.
 // Reads: time, position, velocity.   Writes: velocity, flags.
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -25,6 +27,23 @@ double strength(const scene::TimeWindow& win, double t) {
 }
 
 // ∫_start^t strength(s) ds
+// The kPrescribed bits of the condition's axes.
+std::uint8_t axis_bits(const scene::BoundaryCondition& bc) {
+  return static_cast<std::uint8_t>((bc.axes[0] ? kPrescribedX : 0) | (bc.axes[1] ? kPrescribedY : 0) |
+                                   (bc.axes[2] ? kPrescribedZ : 0));
+}
+
+// Writes the prescribed components of v into the particle's velocity and marks them.
+inline void prescribe(Particles& p, std::uint32_t i, const Vec3& v, std::uint8_t bits) {
+  if (bits == kPrescribed) {
+    p.velocity[i] = v;
+  } else {
+    for (int a = 0; a < 3; ++a)
+      if (bits & (kPrescribedX << a)) p.velocity[i][a] = v[a];
+  }
+  p.flags[i] |= bits;
+}
+
 double integrated_strength(const scene::TimeWindow& win, double t) {
   const double s = std::max(0.0, t - win.start);
   if (win.ramp <= 0.0) return s;
@@ -50,20 +69,18 @@ SystemDecl boundary_condition_system(WorldState& w) {
               const auto& bc = set.conditions[c];
               if (!active(bc.window, t_mid)) continue;
               const auto& list = set.particles[c];
+              const std::uint8_t bits = axis_bits(bc);
               using Kind = scene::BoundaryCondition::Kind;
               if (bc.kind == Kind::anchor) {
                 parallel_for_each(list.size(), [&](std::size_t k) {
-                  const auto i = list[k];
-                  p.velocity[i] = Vec3::Zero();
-                  p.flags[i] |= kPrescribed;
+                  prescribe(p, list[k], Vec3::Zero(), bits);
                 }, 4096);
               } else if (bc.kind == Kind::velocity) {
                 const double r = strength(bc.window, t_mid);
                 const Vec3 center = bc.center + bc.velocity * integrated_strength(bc.window, w.clock.time);
                 parallel_for_each(list.size(), [&](std::size_t k) {
                   const auto i = list[k];
-                  p.velocity[i] = r * (bc.velocity + bc.angular_velocity.cross(p.position[i] - center));
-                  p.flags[i] |= kPrescribed;
+                  prescribe(p, i, r * (bc.velocity + bc.angular_velocity.cross(p.position[i] - center)), bits);
                 }, 4096);
               } else {
                 const double r = strength(bc.window, t_end);
@@ -73,8 +90,7 @@ SystemDecl boundary_condition_system(WorldState& w) {
                   const auto i = list[k];
                   const Vec3& x = p.reference_position[i];
                   const Vec3 target = x + r * bc.displacement + rot_minus_i * (x - bc.center);
-                  p.velocity[i] = (target - p.position[i]) / dt;
-                  p.flags[i] |= kPrescribed;
+                  prescribe(p, i, (target - p.position[i]) / dt, bits);
                 }, 4096);
               }
             }

@@ -3,7 +3,8 @@
 // to the nearest point of its surface, and its velocity relative to the collider surface loses its
 // approaching normal part (times −restitution) and, by Coulomb friction, up to friction·|Δv_n| of its
 // tangential part. Projection never lets a particle center penetrate, needs no stiffness, and so
-// does not limit the time step. Particles whose velocity a boundary condition prescribes are left alone.
+// does not limit the time step. Particles a boundary condition prescribes on any axis are left alone (a
+// projection would move their prescribed components).
 // Reads: time, flags.   Writes: position, velocity.
 #include <Eigen/Geometry>
 #include <cmath>

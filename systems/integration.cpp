@@ -3,8 +3,9 @@
 //   drift:       y ← y + dt v                          (all particles)
 //   kick_end:    a ← F/m;  v ← v·exp(−c dt/2) + (dt/2) a   (free particles)
 // c is the material's mass-proportional damping rate (0 by default: undamped, energy-conserving).
-// Particles whose velocity a boundary condition prescribes this step (flag kPrescribed) are not
-// kicked: the boundary condition system owns their velocity.
+// The velocity components a boundary condition prescribes this step (flags kPrescribed{X,Y,Z}) are
+// not kicked: the boundary condition system owns them. A particle prescribed on some axes only (a
+// roller) is kicked on the others.
 // kick_begin  reads acceleration, flags; writes velocity.
 // drift       reads velocity;            writes position.
 // kick_end    reads internal_force, external_force, contact_force, flags; writes velocity, acceleration.
@@ -27,7 +28,9 @@ SystemDecl kick_begin_system(WorldState& w) {
             const double half = 0.5 * w.clock.dt;
             auto& p = w.particles;
             parallel_for_each(p.count(), [&](std::size_t i) {
-              if (p.flags[i] & kPrescribed) return;
+              // Partly prescribed particles are kicked whole: the boundary condition system, which
+              // runs next, writes their prescribed components over it.
+              if ((p.flags[i] & kPrescribed) == kPrescribed) return;
               const double c = w.model.damping[i];
               const double decay = c > 0.0 ? std::exp(-c * half) : 1.0;
               p.velocity[i] = decay * p.velocity[i] + half * p.acceleration[i];
@@ -63,7 +66,8 @@ SystemDecl kick_end_system(WorldState& w) {
               const Vec3 a = (s.internal_force[i] + s.external_force[i] + s.contact_force[i]) / p.mass[i];
               p.acceleration[i] = a;
               const Vec3& y = p.position[i];
-              if (p.flags[i] & kPrescribed) {
+              const std::uint8_t prescribed = p.flags[i] & kPrescribed;
+              if (prescribed == kPrescribed) {
                 // The boundary condition owns this velocity: only finiteness is checked.
                 const Vec3& v = p.velocity[i];
                 if (!std::isfinite(y.x() + y.y() + y.z() + v.x() + v.y() + v.z())) report(i);
@@ -71,7 +75,11 @@ SystemDecl kick_end_system(WorldState& w) {
               }
               const double c = w.model.damping[i];
               const double decay = c > 0.0 ? std::exp(-c * half) : 1.0;
-              const Vec3 v = decay * p.velocity[i] + half * a;
+              Vec3 v = decay * p.velocity[i] + half * a;
+              if (prescribed) {  // a roller: its prescribed components keep the condition's value
+                for (int ax = 0; ax < 3; ++ax)
+                  if (prescribed & (kPrescribedX << ax)) v[ax] = p.velocity[i][ax];
+              }
               p.velocity[i] = v;
               // NaN fails the comparison too; the position sum is finite unless a coordinate is not.
               if (!(v.squaredNorm() <= max_speed2) || !std::isfinite(y.x() + y.y() + y.z())) report(i);

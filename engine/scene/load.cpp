@@ -499,6 +499,8 @@ class Converter {
                                     : BoundaryCondition::Kind::displacement;
     out.region = region(c["region"], p + "/region");
     out.window = {num(c["start"]), num(c["ramp"]), num(c["end"])};
+    out.axes = {false, false, false};
+    for (const Json& a : c["axes"]) out.axes[static_cast<std::size_t>(a.get_ref<const std::string&>()[0] - 'x')] = true;
     if (!(out.window.end > out.window.start))
       fail(p + "/end", "ends before it starts (got " + show(c["end"]) + "; expected a time after start = " +
                            show(c["start"]) + ")");

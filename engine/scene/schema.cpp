@@ -213,6 +213,10 @@ Key build_spec() {
       vec3("displacement", "u = ramp·(displacement + (R − I)(x − center)), m.")
           .def(kZero).only({"displacement"}),
       rotation("rotation", "Rotation R about `center`; omitted = none.").only({"displacement"}),
+      strings("axes", {"x", "y", "z"},
+              "The world axes it prescribes; the others keep their free motion under the forces. [\"x\"] "
+              "is a roller: a grip that pulls along x and lets the section contract, or (`anchor`) a "
+              "symmetry plane normal to x.").at_least(1).def(Json::array({"x", "y", "z"})),
   }).def(Json::array());
 
 

@@ -3,6 +3,7 @@
 // The JSON format, with every key's type, default, range and meaning, is generated from the spec in
 // schema.cpp (`perifx spec` prints it; docs copy: assets/scenes/FORMAT.md).
 #pragma once
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <stdexcept>
@@ -126,6 +127,10 @@ struct BoundaryCondition {
   Vec3 rotation_axis = Vec3::UnitX();  // displacement rotation axis (unit)
   double rotation_angle = 0.0;         // radians
   Vec3 center = Vec3::Zero();
+  // The world axes the condition prescribes (x, y, z). An axis left out keeps its free motion under
+  // the forces, so {x} alone is a roller: a grip that pulls along x and lets the section contract,
+  // or (anchor) a symmetry plane.
+  std::array<bool, 3> axes = {true, true, true};
 };
 
 // An external load (systems/external_loads.cpp, systems/README.md §8.6): a force applied on top of

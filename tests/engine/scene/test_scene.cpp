@@ -94,7 +94,7 @@ TEST_CASE("scene: a full scene converts to the expected typed values") {
       { "type": "anchor", "region": { "type": "box", "min": [-1, -1, -1], "max": [0, 1, 1], "body": "beam" } },
       { "type": "velocity", "region": { "type": "halfspace", "point": [0, 0, 0], "normal": [0, 0, 2] },
         "velocity": [0, 1, 0], "angular_velocity": [1, 0, 0], "center": [0, 1, 0],
-        "start": 0.5, "ramp": 0.25, "end": 2 },
+        "start": 0.5, "ramp": 0.25, "end": 2, "axes": ["z", "x"] },
       { "type": "displacement", "region": { "type": "sphere", "center": [1, 1, 1], "radius": 0.5, "body": "rod" },
         "displacement": [0, 0, 0.1], "rotation": { "axis": [0, 3, 0], "degrees": 180 }, "end": "inf" }
     ],
@@ -187,6 +187,7 @@ TEST_CASE("scene: a full scene converts to the expected typed values") {
   CHECK(anchor.region.body == 0);
   CHECK(anchor.window.start == 0);
   CHECK(std::isinf(anchor.window.end));
+  CHECK(anchor.axes == std::array<bool, 3>{true, true, true});  // default: every axis
   const BoundaryCondition& push = s.boundary_conditions[1];
   CHECK(push.kind == BoundaryCondition::Kind::velocity);
   CHECK(push.region.kind == Region::Kind::halfspace);
@@ -198,6 +199,7 @@ TEST_CASE("scene: a full scene converts to the expected typed values") {
   CHECK(push.window.start == 0.5);
   CHECK(push.window.ramp == 0.25);
   CHECK(push.window.end == 2);
+  CHECK(push.axes == std::array<bool, 3>{true, false, true});
   const BoundaryCondition& twist = s.boundary_conditions[2];
   CHECK(twist.kind == BoundaryCondition::Kind::displacement);
   CHECK(twist.region.kind == Region::Kind::sphere);
@@ -366,6 +368,13 @@ TEST_CASE("scene: unknown and misplaced keys") {
   j["boundary_conditions"] = Json::parse(R"([{"type": "anchor", "region": {"type": "all"}, "velocity": [0, 1, 0]}])");
   CHECK_HAS(error_in(j), "/boundary_conditions/0/velocity: key 'velocity' is not used by boundary condition type "
                          "'anchor' (used by: velocity)");
+  j = minimal();
+  j["boundary_conditions"] = Json::parse(R"([{"type": "anchor", "region": {"type": "all"}, "axes": ["x", "w"]}])");
+  CHECK_HAS(error_in(j), "/boundary_conditions/0/axes: invalid entry 'w'");
+  j["boundary_conditions"][0]["axes"] = Json::array();
+  CHECK_HAS(error_in(j), "/boundary_conditions/0/axes: too few entries");
+  j["boundary_conditions"][0]["axes"] = Json::parse(R"(["y", "y"])");
+  CHECK_HAS(error_in(j), "/boundary_conditions/0/axes: duplicate entry 'y'");
   CHECK_HAS(error_of(R"({"a": 1, "a": 2})", "dup.json"), "dup.json: /a: duplicate key 'a'");
   j = minimal();
   const std::string text = j.dump();  // splice a second "steel" into the materials object
