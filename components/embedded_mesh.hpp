@@ -49,8 +49,9 @@ struct EmbeddedMesh {
   std::vector<Vec3> vertex_velocity;      // m/s
   std::vector<std::uint32_t> origin;      // original vertex index (itself for original vertices)
   std::vector<std::uint8_t> split_copy;   // 1 for a copy made by splitting
-  // Embedding weights (VertexMotion::embedded): CSR per vertex. Rebuilt for a vertex when its tet
-  // group changes; rows of copies are appended (weight_rows[v] = {begin, end} into weight_*).
+  // Embedding weights (VertexMotion::embedded): CSR per vertex, built on that motion's first update
+  // (empty until then). Rebuilt for a vertex when its tet group changes; rows of copies are appended
+  // (weight_rows[v] = {begin, end} into weight_*).
   std::vector<std::array<std::uint32_t, 2>> weight_rows;
   std::vector<std::uint32_t> weight_particle;
   std::vector<double> weight_value;

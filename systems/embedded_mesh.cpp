@@ -8,7 +8,7 @@
 // pair without a bond (an initial crack removed it, or the horizon is shorter than the barycenter
 // distance) starts cracked: its face is pending and the first mesh_split opens it.
 //
-// Embedding weights (VertexMotion::embedded): for the vertex X with support particles p (masses m_p,
+// Embedding weights (VertexMotion::embedded; built on its first use, ensure_vertex_weights): for the vertex X with support particles p (masses m_p,
 // reference positions x_p, d_p = x_p − X), the mass-weighted least-squares affine fit of the
 // displacement field evaluated at X is  u(X) = Σ w_p u_p  with
 //   w_p = m_p/M − m_p (d_p − d̄)ᵀ D⁺ d̄,   M = Σ m,  d̄ = Σ m d / M,  D = Σ m (d − d̄)(d − d̄)ᵀ.
@@ -95,6 +95,25 @@ void embed_vertex(WorldState& w, std::uint32_t v, const std::vector<std::uint32_
   e.weight_rows[v] = {begin, static_cast<std::uint32_t>(e.weight_particle.size())};
 }
 
+void ensure_vertex_weights(WorldState& w) {
+  EmbeddedMesh& e = w.embedded;
+  const std::size_t nv = e.vertices.size();
+  if (e.weight_rows.size() == nv) return;
+  e.weight_rows.assign(nv, {0, 0});
+  e.weight_particle.clear();
+  e.weight_value.clear();
+  std::vector<std::uint32_t> group;
+  for (std::uint32_t v = 0; v < nv; ++v) {
+    group.clear();
+    const std::uint32_t o = e.origin[v];
+    for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
+      const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
+      if (e.tets[t][s] == v) group.push_back(t);
+    }
+    if (!group.empty()) embed_vertex(w, v, group);
+  }
+}
+
 void setup_embedded_mesh(WorldState& w, const std::vector<std::array<std::int32_t, 4>>& adjacency) {
   EmbeddedMesh& e = w.embedded;
   const TetMesh& mesh = w.mesh;
@@ -152,20 +171,13 @@ void setup_embedded_mesh(WorldState& w, const std::vector<std::array<std::int32_
   for (std::uint32_t t = 0; t < nt; ++t)
     for (std::uint32_t s = 0; s < 4; ++s) e.incidence[fill[mesh.tets[t][s]]++] = t * 4 + s;
 
-  // Embedding weights of every vertex over its incident tets.
-  e.weight_rows.assign(nv, {0, 0});
-  std::vector<std::uint32_t> group;
-  for (std::uint32_t v = 0; v < nv; ++v) {
-    group.clear();
-    for (std::uint32_t q = e.incidence_offsets[v]; q < e.incidence_offsets[v + 1]; ++q) group.push_back(e.incidence[q] / 4);
-    if (!group.empty()) embed_vertex(w, v, group);
-  }
+  // No embedding weights: only VertexMotion::embedded reads them (ensure_vertex_weights).
   // A vertex whose tets are not joined through intact faces that hold it (a tet hanging by a vertex or
   // an edge in the input mesh; the faces of initial cracks) is split now: later splits only look at
   // vertices of fresh crack faces, and a hanging tet has none at such a vertex, so it would stay tied
   // to the rest there after its bonds break.
   split_disconnected_vertices(w);
-  update_mesh_vertices(w, 0.0);
+  start_mesh_vertices(w);
 }
 
 }  // namespace perifx::systems

@@ -4,11 +4,11 @@
 // among the original incidence of origin[v], keeping the slots that still hold v) are grouped by
 // connectivity through shared faces that contain v and are intact (not cracked, not separated).
 // k > 1 groups → k − 1 new vertex copies; the group holding the smallest tet index keeps v, every
-// other group's tets are rewritten to its copy, and each group gets new embedding weights. Only
-// vertices of fresh faces can change their grouping (a face is cracked for good), so vertices that
-// were processed before need no second look. Afterwards every pending face whose two tets no longer
-// share all three vertices is separated (now two boundary triangles) and leaves the pending set;
-// faces at a crack front (not yet separating) stay pending.
+// other group's tets are rewritten to its copy, and each group gets new embedding weights (once the
+// embedded motion has built them). Only vertices of fresh faces can change their grouping (a face is
+// cracked for good), so vertices that were processed before need no second look. Afterwards every
+// pending face whose two tets no longer share all three vertices is separated (now two boundary
+// triangles) and leaves the pending set; faces at a crack front (not yet separating) stay pending.
 // Non-manifold edges (pinched cracks). Vertex splitting alone can leave an edge (p, q) on more than
 // two boundary triangles: the ring of tets around it is cut into several groups by separated faces,
 // yet p and q each keep one connected star through faces that do not contain the edge, so neither
@@ -95,6 +95,7 @@ std::size_t split_vertex(WorldState& w, std::uint32_t v, Scratch& sc) {
   }
   const std::uint32_t groups = sets.label(group_of);
   if (groups < 2) return 0;
+  const bool weights = !e.weight_rows.empty();  // the embedded motion's (ensure_vertex_weights)
   std::size_t copies = 0;
   const std::uint32_t o = e.origin[v];
   for (std::uint32_t g = 0; g < groups; ++g) {
@@ -109,12 +110,12 @@ std::size_t split_vertex(WorldState& w, std::uint32_t v, Scratch& sc) {
       e.vertex_velocity.push_back(e.vertex_velocity[v]);
       e.origin.push_back(o);
       e.split_copy.push_back(1);
-      e.weight_rows.push_back({0, 0});
+      if (weights) e.weight_rows.push_back({0, 0});
       for (std::size_t a = 0; a < n; ++a)
         if (group_of[a] == g) e.tets[tets[a]][slot[a]] = target;
       ++copies;
     }
-    embed_vertex(w, target, group);
+    if (weights) embed_vertex(w, target, group);
   }
   return copies;
 }

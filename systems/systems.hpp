@@ -39,6 +39,10 @@ void setup_projectiles(WorldState& world);
 void setup_embedded_mesh(WorldState& world, const std::vector<std::array<std::int32_t, 4>>& tet_face_neighbors);
 // Embedding weights of vertex v over the particles of its tet group (grown by rings when degenerate).
 void embed_vertex(WorldState& world, std::uint32_t v, const std::vector<std::uint32_t>& group);
+// The weights of every vertex, over its current tet group, when they are not there yet: only
+// VertexMotion::embedded reads them, so they are built on its first update (mesh_vertices.cpp)
+// and kept current by mesh_split from then on.
+void ensure_vertex_weights(WorldState& world);
 
 // ---- kernels (also used by the stability estimate and the tests) ----
 // θ_i (Eq 6) and P_i for positions y; theta and coupling sized particle count.
@@ -82,6 +86,10 @@ std::size_t update_piece_ids(WorldState& world);
 std::size_t collect_crack_faces(WorldState& world);
 std::size_t split_mesh_vertices(WorldState& world);
 void update_mesh_vertices(WorldState& world, double dt);
+// Set-up of the vertex motion (mesh_vertices.cpp): the embedding weights' users and Eq 20–22 start
+// from a first update; the default (deformation) motion only needs its held rotations and arrays,
+// since at set-up y = x and the vertices already sit at their reference places.
+void start_mesh_vertices(WorldState& world);
 // mesh_rotations.cpp: the held rotations of particles whose family does not fit (step state of
 // VertexMotion::deformation); init at setup, update every step. family_fits: ≥ 4 alive bonds and K
 // well conditioned; deformation_conditioned: det F > 0 and ‖F‖², ‖F⁻¹‖² ≤ 12.

@@ -6,15 +6,17 @@ pair it runs the preview and the full scene over the time both cover and reports
   preview's particles, per frame, over the full run's bounding-box diagonal; the paper's measure),
   mean and max over the frames both runs wrote;
 * fracture onset: the first frame time at which any bond has broken, in each run;
-* fragments at the end (summary.json) and the mass fraction of the largest piece (last frame's
-  fragment_id and mass).
+* fragments at the end (summary.json; every piece, single-particle dust included, so it grows with
+  the particle count), the pieces holding at least 1 % of the mass (a count that can agree across
+  resolutions) and the mass fraction of the largest piece (last frame's fragment_id and mass).
 
     python3 assets/report/preview_vs_final.py [--perifx build/perifx] [--threads 2]
-        [--normalization corrected] [--work DIR] fig11_bar_swing fig12_bar_twist ...
+        [--normalization corrected] [--work DIR] [--reuse] fig11_bar_swing fig12_bar_twist ...
 
 --normalization runs both scenes of each pair with that model instead of the one they name (the paper
 scenes choose `paper`; the previews of Fig. 10-13 choose `discrete`). Prints one markdown row per pair
-and a JSON line with the numbers."""
+and a JSON line with the numbers. --reuse takes a run whose summary.json is already in the work
+directory (from the same scene copy) instead of running it again."""
 import argparse
 import csv
 import json
@@ -76,6 +78,7 @@ def run_stats(run):
         pieces[fid] = pieces.get(fid, 0.0) + m
     total = sum(pieces.values())
     return {"fragments": summary["fragments"], "largest_piece": max(pieces.values()) / total if total else 0.0,
+            "pieces_1pct": sum(1 for m in pieces.values() if total and m >= 0.01 * total),
             "onset_s": onset_time, "particles": summary["particles"], "step_wall_s": summary["step_wall_seconds"]}
 
 
@@ -85,17 +88,22 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--normalization", default="")
     ap.add_argument("--work", default="out/preview_vs_final")
+    ap.add_argument("--reuse", action="store_true")
     ap.add_argument("pairs", nargs="+")
     a = ap.parse_args()
     os.makedirs(a.work, exist_ok=True)
     print("| scene | model | common time (s) | particles preview / full | motion deviation mean / max (% of diagonal) "
-          "| fracture onset preview / full (s) | fragments preview / full | largest piece preview / full |")
-    print("|---|---|---|---|---|---|---|---|")
+          "| fracture onset preview / full (s) | fragments preview / full | pieces ≥ 1 % of the mass preview / full "
+          "| largest piece preview / full |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for name in a.pairs:
         dur = min(json.load(open(os.path.join(PAPER, f"{name}.{v}.json")))["time"]["duration"] for v in ("preview", "full"))
         runs = {}
         for v in ("preview", "full"):
             copy, out, rate = scene_copy(name, v, dur, a.normalization, a.work)
+            if a.reuse and os.path.exists(os.path.join(out, "summary.json")):
+                runs[v] = out
+                continue
             r = subprocess.run([a.perifx, "run", copy, "--threads", str(a.threads), "--quiet", "--overwrite"],
                                capture_output=True, text=True)
             limit = re.search(r"expected at most the stable step ([0-9.e+-]+) s", r.stderr)
@@ -131,7 +139,7 @@ def main():
             return "—" if x["onset_s"] is None else f"{x['onset_s']:.4g}"
         print(f"| {name} | {model} | {dur:g} | {p['particles']} / {f['particles']} | {100 * dev_mean:.2f} / "
               f"{100 * dev_max:.2f} | {onset(p)} / {onset(f)} | {p['fragments']} / {f['fragments']} | "
-              f"{p['largest_piece']:.3f} / {f['largest_piece']:.3f} |", flush=True)
+              f"{p['pieces_1pct']} / {f['pieces_1pct']} | {p['largest_piece']:.3f} / {f['largest_piece']:.3f} |", flush=True)
         print("PREVIEW_VS_FINAL " + json.dumps({"scene": name, "model": model, "duration": dur, "deviation_mean": dev_mean,
                                                 "deviation_max": dev_max, "preview": p, "full": f}), file=sys.stderr,
               flush=True)
