@@ -26,7 +26,6 @@ double strength(const scene::TimeWindow& win, double t) {
   return std::clamp((t - win.start) / win.ramp, 0.0, 1.0);
 }
 
-// ∫_start^t strength(s) ds
 // The kPrescribed bits of the condition's axes.
 std::uint8_t axis_bits(const scene::BoundaryCondition& bc) {
   return static_cast<std::uint8_t>((bc.axes[0] ? kPrescribedX : 0) | (bc.axes[1] ? kPrescribedY : 0) |
@@ -44,6 +43,7 @@ inline void prescribe(Particles& p, std::uint32_t i, const Vec3& v, std::uint8_t
   p.flags[i] |= bits;
 }
 
+// ∫_start^t strength(s) ds
 double integrated_strength(const scene::TimeWindow& win, double t) {
   const double s = std::max(0.0, t - win.start);
   if (win.ramp <= 0.0) return s;

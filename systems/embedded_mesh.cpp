@@ -8,8 +8,8 @@
 // pair without a bond (an initial crack removed it, or the horizon is shorter than the barycenter
 // distance) starts cracked: its face is pending and the first mesh_split opens it.
 //
-// Embedding weights (VertexMotion::embedded; built on its first use, ensure_vertex_weights): for the vertex X with support particles p (masses m_p,
-// reference positions x_p, d_p = x_p − X), the mass-weighted least-squares affine fit of the
+// Embedding weights (VertexMotion::embedded; built on its first use, ensure_vertex_weights): for
+// the vertex X with support particles p (masses m_p, reference positions x_p, d_p = x_p − X), the mass-weighted least-squares affine fit of the
 // displacement field evaluated at X is  u(X) = Σ w_p u_p  with
 //   w_p = m_p/M − m_p (d_p − d̄)ᵀ D⁺ d̄,   M = Σ m,  d̄ = Σ m d / M,  D = Σ m (d − d̄)(d − d̄)ᵀ.
 // Σ w_p = 1 exactly (translations are exact) and Σ w_p d_p = 0 when D has full rank (affine maps,
