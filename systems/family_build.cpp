@@ -16,6 +16,7 @@
 #include <bit>
 #include <cmath>
 #include <span>
+#include <utility>
 
 #include "bond_rules.hpp"
 #include "huge_pages.hpp"
@@ -173,50 +174,52 @@ void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>
   const std::size_t n = x.size();
   const Lists lists = w.settings.family == scene::FamilyRule::mesh ? families_by_mesh(w, tet_face_neighbors)
                                                                 : families_by_distance(w);
-  // A bond is one physical link: i–j is bonded when either found the other. The union of each list
-  // with its transpose T_i = {k : i ∈ L_k}, then per-particle merges in parallel. The transpose is
-  // built in parallel without atomics: the particles are cut into kChunks index ranges, each range
-  // counts, then fills, its own slots of every T_j after the slots of the ranges before it, so every
-  // T_j comes out in increasing k, exactly as a serial fill in particle order. Deterministic for any
-  // thread count. Scratch: kChunks counts per particle.
-  constexpr std::size_t kChunks = 8;
-  const std::size_t per_chunk = (n + kChunks - 1) / kChunks;
-  std::vector<std::uint32_t> slot(kChunks * n, 0);  // [c·n + j]: chunk c's count, then its next slot in T_j
-  parallel_for_each(kChunks, [&](std::size_t c) {
-    std::uint32_t* const count = slot.data() + c * n;
-    for (std::size_t i = c * per_chunk, end = std::min(n, (c + 1) * per_chunk); i < end; ++i)
-      for (std::uint32_t j : lists[i]) ++count[j];
-  }, 1);
-  std::vector<std::uint32_t> t_offsets(n + 1, 0);
-  parallel_for_each(n, [&](std::size_t j) {  // counts → offsets within T_j, per chunk
-    std::uint32_t sum = 0;
-    for (std::size_t c = 0; c < kChunks; ++c) {
-      const std::uint32_t count = slot[c * n + j];
-      slot[c * n + j] = sum;
-      sum += count;
+  // A bond is one physical link: i–j is bonded when either found the other. Bonds of i = L_i ∪ E_i,
+  // where the extras E_i = {k : i ∈ L_k, k ∉ L_i} are the one-sided finds (rare: where two balls see
+  // different paths through the mesh). They are found without building the transpose (as large as the
+  // bond array, and at 9e5 particles about a second of page faults here): the particles are cut into
+  // chunks of consecutive k; within a chunk the queries "k ∈ L_i?" reach each list L_i with increasing
+  // k, so a cursor per list advances monotonically (the thread's dense arrays, reset by a chunk stamp)
+  // and the whole test is one pass over the lists. Each chunk keeps its (i, k) extras in order; they
+  // are then joined in chunk order and sorted: deterministic for any thread count.
+  struct Cursors {
+    std::vector<std::uint32_t> position, chunk;  // per particle: cursor into L_i, chunk + 1 that set it
+  };
+  tbb::enumerable_thread_specific<Cursors> cursors(
+      [n] { return Cursors{std::vector<std::uint32_t>(n, 0), std::vector<std::uint32_t>(n, 0)}; });
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> chunk_extras(lists.chunk.size());
+  parallel_for_each(lists.chunk.size(), [&](std::size_t c) {
+    Cursors& cur = cursors.local();
+    const auto stamp = static_cast<std::uint32_t>(c + 1);
+    for (std::size_t k = c * kListChunk, end = std::min(n, (c + 1) * kListChunk); k < end; ++k) {
+      const auto k32 = static_cast<std::uint32_t>(k);
+      for (std::uint32_t i : lists[k]) {
+        const auto row = lists[i];
+        std::uint32_t& at = cur.position[i];
+        if (cur.chunk[i] != stamp) {
+          cur.chunk[i] = stamp;
+          at = static_cast<std::uint32_t>(std::lower_bound(row.begin(), row.end(), k32) - row.begin());
+        }
+        while (at < row.size() && row[at] < k32) ++at;
+        if (at == row.size() || row[at] != k32) chunk_extras[c].emplace_back(i, k32);
+      }
     }
-    t_offsets[j + 1] = sum;
-  }, 4096);
-  for (std::size_t i = 0; i < n; ++i) t_offsets[i + 1] += t_offsets[i];
-  std::vector<std::uint32_t> transpose;  // the size of the bond array: its pages faulted in by all threads
-  assign_huge_pages(transpose, t_offsets[n], std::uint32_t{0});
-  parallel_for_each(kChunks, [&](std::size_t c) {
-    std::uint32_t* const next = slot.data() + c * n;
-    for (std::size_t i = c * per_chunk, end = std::min(n, (c + 1) * per_chunk); i < end; ++i)
-      for (std::uint32_t j : lists[i]) transpose[t_offsets[j] + next[j]++] = static_cast<std::uint32_t>(i);
   }, 1);
-  slot = {};
-  // Visits the sorted union of L_i and T_i.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> extras;  // (i, k): i also bonds k
+  for (const auto& e : chunk_extras) extras.insert(extras.end(), e.begin(), e.end());
+  chunk_extras = {};
+  std::sort(extras.begin(), extras.end());
+  std::vector<std::uint32_t> extra_offsets(n + 1, 0);
+  for (const auto& e : extras) ++extra_offsets[e.first + 1];
+  for (std::size_t i = 0; i < n; ++i) extra_offsets[i + 1] += extra_offsets[i];
+  // Visits the sorted union of L_i and E_i (disjoint).
   auto for_each_member = [&](std::size_t i, auto&& visit) {
     const auto row = lists[i];
     auto a = row.begin(), a_end = row.end();
-    auto t = transpose.begin() + t_offsets[i], t_end = transpose.begin() + t_offsets[i + 1];
+    auto t = extras.begin() + extra_offsets[i], t_end = extras.begin() + extra_offsets[i + 1];
     while (a != a_end || t != t_end) {
-      std::uint32_t next;
-      if (t == t_end || (a != a_end && *a < *t)) next = *a++;
-      else if (a == a_end || *t < *a) next = *t++;
-      else next = *a++, ++t;  // in both
-      visit(next);
+      if (t == t_end || (a != a_end && *a < t->second)) visit(*a++);
+      else visit((t++)->second);
     }
   };
 
@@ -224,10 +227,8 @@ void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>
   b.offsets.assign(n + 1, 0);
   b.initial_count.resize(n);
   parallel_for_each(n, [&](std::size_t i) {
-    std::uint32_t count = 0;
-    for_each_member(i, [&](std::uint32_t) { ++count; });
-    b.initial_count[i] = count;
-  }, 256);
+    b.initial_count[i] = static_cast<std::uint32_t>(lists.count[i] + extra_offsets[i + 1] - extra_offsets[i]);
+  }, 4096);
   for (std::size_t i = 0; i < n; ++i) b.offsets[i + 1] = b.offsets[i] + b.initial_count[i];
   const std::size_t m = b.offsets[n];
   // The bond arrays are the largest the world holds: backed by huge pages (huge_pages.hpp).

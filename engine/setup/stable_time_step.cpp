@@ -93,7 +93,8 @@ double stable_time_step_bound(const WorldState& w) {
   const auto& vol = w.particles.volume;
   const auto& md = w.model;
   // Per particle: q_i = 4 V_i (max(k_i, 0) c_i² S_i + b_i), so g_ij = q_i ω_ij V_j.
-  std::vector<double> q(n, 0.0), bound(n, 0.0);
+  // Σ_j g_ij = q_i s_i + V_i Σ_j q_j ω_ji with s_i = Σ_j ω_ij V_j: one weight per bond in each pass.
+  std::vector<double> q(n, 0.0), s(n, 0.0), bound(n, 0.0);
   parallel_for_each(n, [&](std::size_t i) {
     double s_i = 0.0;
     for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
@@ -103,15 +104,15 @@ double stable_time_step_bound(const WorldState& w) {
     const double c = md.dilatation_scale[i], bb = 0.25 * md.b4[i];
     const double kk = c > 0.0 ? (0.25 * md.a4[i] - bb * md.beta[i]) / c : 0.0;
     q[i] = 4.0 * vol[i] * (std::max(kk, 0.0) * c * c * s_i + bb);
+    s[i] = s_i;
   }, 256);
   parallel_for_each(n, [&](std::size_t i) {
     double g = 0.0;
     for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
       const std::uint32_t j = b.neighbor[k];
-      const Vec3 xi = x[j] - x[i];
-      g += q[i] * systems::bond_weight(w, i, xi) * vol[j] + q[j] * systems::bond_weight(w, j, -xi) * vol[i];
+      g += q[j] * systems::bond_weight(w, j, x[i] - x[j]);
     }
-    bound[i] = g / w.particles.mass[i];
+    bound[i] = (q[i] * s[i] + g * vol[i]) / w.particles.mass[i];
   }, 256);
   double omega2 = 0.0;
   for (double v : bound) omega2 = std::max(omega2, v);
