@@ -126,6 +126,7 @@ struct PullResult {
   double plateau_stress = 0; // Pa, mean grip force / area over the last quarter of the run
   std::size_t particles = 0, broken = 0, fragments = 0;
   double horizon = 0;
+  std::vector<double> time, strain, stress;  // per step: s, grip-to-grip engineering strain, grip force / area (Pa)
 };
 
 // A bar `length` × 0.02 × 0.02 m along x pulled by its end slabs at ±v, no damping, no contact; the
@@ -167,19 +168,30 @@ PullResult pull(scene::Material mat, double cell, double speed, double duration,
   int late = 0;
   const auto steps = static_cast<std::uint64_t>(duration / sc.time.dt);
   std::vector<Vec3> before(world.positions().begin(), world.positions().end());
+  // The grips are rigid slabs: the free length between their inner faces, and its change from the mean
+  // x of each slab, give the bar's engineering strain.
+  const double free_length = size.x() - 2.0 * 1.01 * cell;
+  double grip_count[2] = {0, 0}, grip_x0[2] = {0, 0};
+  for (std::size_t i = 0; i < x.size(); ++i)
+    if (grip[i]) grip_count[grip[i] > 0] += 1, grip_x0[grip[i] > 0] += x[i].x();
   for (std::uint64_t s = 0; s < steps; ++s) {
     world.step();
     const auto y = world.positions();
-    double force = 0;
+    double force = 0, grip_x[2] = {0, 0};
     for (std::size_t i = 0; i < x.size(); ++i) {
       if (!grip[i]) continue;
       const Vec3 f = -w.state.internal_force[i];  // what the grip applies to hold the particle
       work += f.dot(y[i] - before[i]);
       if (grip[i] > 0) force += f.x();
+      grip_x[grip[i] > 0] += y[i].x();
       before[i] = y[i];
     }
     out.peak_force = std::max(out.peak_force, force);
     if (s >= 3 * steps / 4) late_force += force, ++late;
+    const double stretch = (grip_x[1] - grip_x0[1]) / grip_count[1] - (grip_x[0] - grip_x0[0]) / grip_count[0];
+    out.time.push_back(double(s + 1) * sc.time.dt);
+    out.strain.push_back(stretch / free_length);
+    out.stress.push_back(force / (size.y() * size.z()));
   }
   const Diagnostics d = world.diagnostics();
   out.dissipated = work - d.kinetic_energy - d.elastic_energy;
@@ -226,14 +238,62 @@ TEST_CASE("yield_stress: a bar in tension flows at sigma_y at three resolutions 
   mat.yield_stress = 2.0e4;  // ε_y = σ_y/E = 0.4 %
   mat.plastic_cap_ratio = kInfinity;
   mat.damping = 0.0;
+  const double sigma_y = mat.yield_stress;
   for (double cell : {0.02 / 4, 0.02 / 6, 0.02 / 8}) {
     // A 6:1 bar, so the grips' lateral constraint stays near the ends; 0.02 m/s each end: strain rate
     // 0.33/s; 0.12 s reaches 4 % = 10 ε_y.
     const PullResult p = pull(mat, cell, 0.02, 0.12, false, 0.12, true);
-    MESSAGE("cell " << cell << " m: grip stress over the last quarter " << p.plateau_stress << " Pa = "
-                    << p.plateau_stress / mat.yield_stress << " sigma_y");
-    std::cout << "YIELD {\"cell\": " << cell << ", \"plateau_over_sigma_y\": " << p.plateau_stress / mat.yield_stress
-              << "}" << std::endl;
-    WARN(p.plateau_stress == doctest::Approx(mat.yield_stress).epsilon(0.05));  // target; see the report
+    // Stress smoothed over one period of the bar's axial ringing between the grips (no damping):
+    // T = 2 L / c with the bar wave speed c = √(E/ρ), 3.4 ms here. A moving mean over exactly T removes
+    // that mode; a shorter one leaves it in the elastic fit and the offset crossing.
+    const std::size_t n = p.stress.size();
+    const double dt = p.time[0];
+    const double period = 2.0 * (0.12 - 2.02 * cell) / std::sqrt(test::youngs(mat.bulk_modulus, mat.shear_modulus) / mat.density);
+    const auto half = static_cast<std::size_t>(0.5 * period / dt);
+    std::vector<double> smooth(n, 0.0);
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t lo = k > half ? k - half : 0, hi = std::min(n - 1, k + half);
+      for (std::size_t q = lo; q <= hi; ++q) smooth[k] += p.stress[q];
+      smooth[k] /= double(hi - lo + 1);
+    }
+    // Yield stress by the 0.2 % offset rule (the engineering definition, e.g. ASTM E8): the elastic line
+    // σ = E ε + b is fitted (least squares) where 0.1 σ_y ≤ σ ≤ 0.5 σ_y; the yield stress is the curve's
+    // value where it first falls below that line shifted by 0.002 in strain.
+    double se = 0, ss = 0, see = 0, ses = 0, count = 0;
+    for (std::size_t k = 0; k < n; ++k)
+      if (smooth[k] >= 0.1 * sigma_y && smooth[k] <= 0.5 * sigma_y && p.strain[k] > 0)
+        se += p.strain[k], ss += smooth[k], see += p.strain[k] * p.strain[k], ses += p.strain[k] * smooth[k], count += 1;
+    REQUIRE(count > 10);
+    const double modulus = (count * ses - se * ss) / (count * see - se * se), intercept = (ss - modulus * se) / count;
+    double offset_yield = 0, offset_strain = 0;
+    for (std::size_t k = 1; k < n; ++k) {
+      const double gap = smooth[k] - (modulus * (p.strain[k] - 0.002) + intercept);
+      if (gap <= 0) {
+        const double gap0 = smooth[k - 1] - (modulus * (p.strain[k - 1] - 0.002) + intercept), f = gap0 / (gap0 - gap);
+        offset_yield = smooth[k - 1] + f * (smooth[k] - smooth[k - 1]);
+        offset_strain = p.strain[k - 1] + f * (p.strain[k] - p.strain[k - 1]);
+        break;
+      }
+    }
+    const double youngs = test::youngs(mat.bulk_modulus, mat.shear_modulus), eps_y = sigma_y / youngs;
+    auto stress_at = [&](double strain) {  // smoothed stress at the first sample past this strain
+      for (std::size_t k = 0; k < n; ++k)
+        if (p.strain[k] >= strain) return smooth[k];
+      return smooth.back();
+    };
+    MESSAGE("cell " << cell << " m: fitted modulus " << modulus / youngs << " E; 0.2 % offset yield " << offset_yield / sigma_y
+                    << " sigma_y at strain " << offset_strain / eps_y << " eps_y; flow stress at 2.5 / 5 / 10 eps_y "
+                    << stress_at(2.5 * eps_y) / sigma_y << " / " << stress_at(5 * eps_y) / sigma_y << " / "
+                    << stress_at(10 * eps_y) / sigma_y << "; grip stress over the last quarter "
+                    << p.plateau_stress / sigma_y << " sigma_y");
+    std::cout << "YIELD {\"cell\": " << cell << ", \"modulus_over_E\": " << modulus / youngs
+              << ", \"offset_yield_over_sigma_y\": " << offset_yield / sigma_y
+              << ", \"flow_2_5\": " << stress_at(2.5 * eps_y) / sigma_y << ", \"flow_5\": " << stress_at(5 * eps_y) / sigma_y
+              << ", \"flow_10\": " << stress_at(10 * eps_y) / sigma_y
+              << ", \"plateau_over_sigma_y\": " << p.plateau_stress / sigma_y << "}" << std::endl;
+    // Issue 12: the bar yields at σ_y within 5 % (0.2 % offset yield stress). The flow stress beyond it
+    // rises (surface-layer hardening, assets/report/accuracy.md §12.3): reported, warned, not held.
+    CHECK(offset_yield == doctest::Approx(sigma_y).epsilon(0.05));
+    WARN(p.plateau_stress == doctest::Approx(sigma_y).epsilon(0.05));
   }
 }
