@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 
 #include "geometry/geometry.hpp"
 #include "systems/huge_pages.hpp"
@@ -133,9 +134,21 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     systems::apply_strength_field(w);
     systems::compute_fracture_thresholds(w);
     phase("model constants");
-    // Initial acceleration for the first kick of velocity Verlet.
-    systems::compute_dilatation(w, p.position, w.state.dilatation, w.state.dilatation_coupling);
-    systems::compute_internal_force(w, p.position, w.state.dilatation_coupling, w.state.internal_force);
+    // Initial acceleration for the first kick of velocity Verlet. In the reference configuration every
+    // extension is exactly 0.0 (|y_j − y_i| and |ξ| are the same bits) and e^p starts at 0, so θ and the
+    // internal force are exactly zero: the passes (0.7 s at 9e5 particles) run only if a position differs.
+    const bool at_reference = p.position.size() == p.reference_position.size() &&
+                              std::memcmp(p.position.data(), p.reference_position.data(), p.position.size() * sizeof(Vec3)) == 0;
+    if (at_reference) {
+      parallel_for_each(p.count(), [&](std::size_t i) {
+        w.state.dilatation[i] = 0.0;
+        w.state.dilatation_coupling[i] = 0.0;
+        w.state.internal_force[i] = Vec3::Zero();
+      });
+    } else {
+      systems::compute_dilatation(w, p.position, w.state.dilatation, w.state.dilatation_coupling);
+      systems::compute_internal_force(w, p.position, w.state.dilatation_coupling, w.state.internal_force);
+    }
     systems::compute_external_force(w, 0.0, 0.0, 0.5 * w.clock.dt);  // the first half step, [0, dt/2]
     parallel_for_each(p.count(), [&](std::size_t i) {
       p.acceleration[i] = (w.state.internal_force[i] + w.state.external_force[i]) / p.mass[i];

@@ -28,6 +28,30 @@ std::vector<Vec3> mapped(const World& world, const std::function<Vec3(const Vec3
 
 }  // namespace
 
+// World set-up skips the initial dilatation and force passes when every particle is at its reference
+// position (engine/setup/world_setup.cpp), relying on this: there θ and the force are exactly 0.0, for
+// every normalization, with plasticity, anisotropy and an initial crack present.
+TEST_CASE("the reference configuration has exactly zero dilatation and internal force") {
+  for (auto norm : {scene::Normalization::paper, scene::Normalization::discrete, scene::Normalization::corrected}) {
+    auto sc = test::box_scene(kSize, kCell, kKappa, kMu);
+    sc.normalization = norm;
+    sc.bodies[0].geometry.jitter = 0.3;
+    sc.materials[0].yield_stress = 1e4;
+    sc.materials[0].anisotropy = Vec3(1.0, 2.0, 1.5).asDiagonal();
+    const std::size_t uncut_bonds = World(sc).bond_count();
+    sc.cracks.push_back({{Vec3(0, -1, -1), Vec3(0, 0, -1), Vec3(0, 0, 1), Vec3(0, -1, 1)}});
+    const World world(sc);
+    const auto x = world.reference_positions();
+    const auto e = test::evaluate(world, std::vector<Vec3>(x.begin(), x.end()));
+    std::size_t nonzero = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) nonzero += e.theta[i] != 0.0 || e.coupling[i] != 0.0 || e.force[i] != Vec3::Zero();
+    CHECK(nonzero == 0);
+    CHECK(world.state().any_plastic);
+    CHECK(world.state().any_anisotropic);
+    CHECK(world.bond_count() < uncut_bonds);  // the crack removed bonds
+  }
+}
+
 TEST_CASE("rigid translation and rotation give zero internal force") {
   World world(test::box_scene(kSize, kCell, kKappa, kMu));
   const double eps = 1e-3;
