@@ -25,12 +25,20 @@ namespace perifx::systems {
 // Arrays below this size gain nothing measurable (and small allocations are not page-aligned).
 inline constexpr std::size_t kHugePageMinBytes = std::size_t{8} << 20;
 
+// The whole 4 KiB pages inside [data, data + bytes), as [begin, end) addresses (empty: end <= begin).
+struct PageRange {
+  std::uintptr_t begin, end;
+};
+inline PageRange whole_pages(const void* data, std::size_t bytes) {
+  constexpr std::uintptr_t kPage = 4096;
+  return {(reinterpret_cast<std::uintptr_t>(data) + kPage - 1) & ~(kPage - 1),
+          (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kPage - 1)};
+}
+
 // Advises the whole pages inside [data, data + bytes) to be backed by huge pages.
 inline void advise_huge_pages(const void* data, std::size_t bytes) {
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
-  constexpr std::uintptr_t kPage = 4096;
-  const auto begin = (reinterpret_cast<std::uintptr_t>(data) + kPage - 1) & ~(kPage - 1);
-  const auto end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kPage - 1);
+  const auto [begin, end] = whole_pages(data, bytes);
   if (end > begin) ::madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
 #else
   (void)data, (void)bytes;
@@ -42,9 +50,8 @@ inline void advise_huge_pages(const void* data, std::size_t bytes) {
 // the pages fault in on first touch as before.
 inline void populate_pages(const void* data, std::size_t bytes) {
 #if defined(__linux__) && defined(MADV_POPULATE_WRITE)
-  constexpr std::uintptr_t kPage = 4096, kSlice = std::uintptr_t{2} << 20;
-  const auto begin = (reinterpret_cast<std::uintptr_t>(data) + kPage - 1) & ~(kPage - 1);
-  const auto end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kPage - 1);
+  constexpr std::uintptr_t kSlice = std::uintptr_t{2} << 20;
+  const auto [begin, end] = whole_pages(data, bytes);
   if (end <= begin) return;
   const auto first_slice = begin & ~(kSlice - 1);
   const std::size_t slices = (end - first_slice + kSlice - 1) / kSlice;

@@ -96,10 +96,6 @@ void step_particle(WorldState& w, std::size_t p) {
   e.held_tracked[p] = 1;
 }
 
-}  // namespace
-
-namespace {
-
 // K = Σ ω V ξξᵀ over p's alive bonds and their count, for set-up's fit test: lane-strided
 // (bond_rules.hpp) so that it runs as SIMD; as a scalar Eigen loop it was 9 % of a 9e5-particle set-up's
 // CPU. The summation order differs from family_sums, so K can differ in its last bits; it only decides

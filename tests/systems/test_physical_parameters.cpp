@@ -126,6 +126,7 @@ struct PullResult {
   double plateau_stress = 0; // Pa, mean grip force / area over the last quarter of the run
   std::size_t particles = 0, broken = 0, fragments = 0;
   double horizon = 0;
+  double free_length = 0;   // m, between the grip slabs' inner faces (the strain's gauge length)
   std::vector<double> time, strain, stress;  // per step: s, grip-to-grip engineering strain, grip force / area (Pa)
 };
 
@@ -170,7 +171,7 @@ PullResult pull(scene::Material mat, double cell, double speed, double duration,
   std::vector<Vec3> before(world.positions().begin(), world.positions().end());
   // The grips are rigid slabs: the free length between their inner faces, and its change from the mean
   // x of each slab, give the bar's engineering strain.
-  const double free_length = size.x() - 2.0 * 1.01 * cell;
+  out.free_length = size.x() - 2.0 * 1.01 * cell;
   double grip_count[2] = {0, 0}, grip_x0[2] = {0, 0};
   for (std::size_t i = 0; i < x.size(); ++i)
     if (grip[i]) grip_count[grip[i] > 0] += 1, grip_x0[grip[i] > 0] += x[i].x();
@@ -190,7 +191,7 @@ PullResult pull(scene::Material mat, double cell, double speed, double duration,
     if (s >= 3 * steps / 4) late_force += force, ++late;
     const double stretch = (grip_x[1] - grip_x0[1]) / grip_count[1] - (grip_x[0] - grip_x0[0]) / grip_count[0];
     out.time.push_back(double(s + 1) * sc.time.dt);
-    out.strain.push_back(stretch / free_length);
+    out.strain.push_back(stretch / out.free_length);
     out.stress.push_back(force / (size.y() * size.z()));
   }
   const Diagnostics d = world.diagnostics();
@@ -248,7 +249,7 @@ TEST_CASE("yield_stress: a bar in tension flows at sigma_y at three resolutions 
     // that mode; a shorter one leaves it in the elastic fit and the offset crossing.
     const std::size_t n = p.stress.size();
     const double dt = p.time[0];
-    const double period = 2.0 * (0.12 - 2.02 * cell) / std::sqrt(test::youngs(mat.bulk_modulus, mat.shear_modulus) / mat.density);
+    const double period = 2.0 * p.free_length / std::sqrt(test::youngs(mat.bulk_modulus, mat.shear_modulus) / mat.density);
     const auto half = static_cast<std::size_t>(0.5 * period / dt);
     std::vector<double> smooth(n, 0.0);
     for (std::size_t k = 0; k < n; ++k) {
