@@ -20,6 +20,7 @@
 #include <cmath>
 
 #include "contact_law.hpp"
+#include "huge_pages.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
 
@@ -41,8 +42,9 @@ void setup_projectiles(WorldState& w) {
     set.bodies.push_back(pr);
   }
   const std::size_t slots = w.particles.count() * set.bodies.size();
-  set.particle_force.assign(slots, Vec3::Zero());
-  set.torque.assign(slots, Vec3::Zero());
+  // n × projectiles each (130 MB at 9e5 particles and 3 projectiles): cleared by all threads.
+  assign_huge_pages(set.particle_force, slots, Vec3(Vec3::Zero()));
+  assign_huge_pages(set.torque, slots, Vec3(Vec3::Zero()));
 }
 
 SystemDecl projectile_drift_system(WorldState& w) {
