@@ -13,8 +13,8 @@ namespace perifx {
 // Candidate pairs (Verlet list with a skin, as in molecular dynamics): for each particle i, the
 // particles j that were within reach = largest d_c + skin of it and not joined by an alive bond when
 // the pair was last decided. Every pair that can touch is in it: a particle that has moved more than
-// skin/4 (relative to the centroid) since its own last search is searched again and its pairs are
-// re-decided on both sides; when bonds break, the pairs of the broken bonds within reach are added
+// 0.3 skin (relative to the centroid) since its own last search is searched again and its pairs are
+// re-decided on both sides; when bonds break, the pairs of the broken bonds within reach + ¼ skin are added
 // (systems/contact.cpp gives the argument). CSR, symmetric, in a deterministic order. An intact body
 // has an empty list and costs one O(n) check per step.
 struct ContactPairs {
@@ -32,7 +32,7 @@ struct ContactPairs {
   std::vector<Vec3> built_position;        // per particle: position minus the centroid of all
                                            // particles, at the particle's last search, m
   // The moved-particle update's buffers (sized at setup; only the CSR arrays grow, when they outgrow
-  // every earlier update): moved[i] = 1 when i moved more than skin/4 since its last search (this
+  // every earlier update): moved[i] = 1 when i moved more than 0.3 skin since its last search (this
   // step's test), moved_list the moved particles ascending, moved_offsets/moved_neighbor their new
   // candidates (CSR over moved_list), found_by[j] how many moved particles found unmoved j, then its
   // write cursor.

@@ -19,15 +19,18 @@
 // Neighbour search: a Verlet list with a skin (components/contact.hpp, ContactPairs). The list holds,
 // per particle, the unbonded particles within reach = largest d_c + skin. Positions are measured from
 // the centroid c of all particles (a common translation changes no distance), z_i = y_i − c. Each
-// particle remembers z_i at its own last search, and only a particle that has moved more than skin/4
-// from there is searched again ("moved"), with its pairs re-decided on both sides; the whole list is
-// rebuilt only at the start or when more than 1/8 of the particles moved (update_moved_pairs,
-// rebuild_pairs). Why that keeps every pair that can come closer than d_c: a pair missing from the
-// list was last decided by the search of one end, i, at a time t*, when |z_i − z_j| ≥ reach. Since then
-// i has moved at most skin/4 and j at most skin/2 (skin/4 each side of its own search position), so
-// the pair has closed by at most ¾ skin and is still farther apart than d_c. A bond that breaks adds its
-// pair when the ends are within reach (update_moved_pairs; same argument, both ends at most skin/2 from
-// where they are then). So one fast fragment costs a search for itself, not a rebuild of the whole
+// particle remembers z_i at its own last search, and only a particle that has moved more than
+// h = 0.3 skin (kMoveLimit) from there is searched again ("moved"), with its pairs re-decided on both
+// sides; the whole list is rebuilt only at the start or when more than 1/8 of the particles moved
+// (update_moved_pairs, rebuild_pairs). Why that keeps every pair that can come closer than d_c: a pair
+// missing from the list was last decided by the search of one end, i, at a time t*, when
+// |z_i − z_j| ≥ reach = d_c,max + skin. Since then i has moved at most h and j at most 2h (h each side
+// of its own search position), so the pair has closed by at most 3h = 0.9 skin and is still farther
+// apart than d_c. A bond that breaks adds its pair when the ends are within reach + ¼ skin
+// (kBrokenReachExtra; update_moved_pairs): a pair left out then closes by at most 4h = 1.2 skin, both
+// ends at most 2h from where they are then, and 1.2 < 1 + ¼. (h was skin/4 with additions at reach
+// until 2026-12-03; 0.3 searches the fast fragments of the bunny preview about a sixth less often.)
+// So one fast fragment costs a search for itself, not a rebuild of the whole
 // list (the sheet preview rebuilt it 987 times in 4000 steps when any skin/2 motion rebuilt all).
 // The search uses a hashed uniform grid (spatial_grid.hpp; cell = reach, counting sort, stable:
 // particles in a bucket stay in index order) and visits 9 rows of 3 cells in a fixed order. A full
@@ -61,6 +64,10 @@ namespace {
 
 constexpr double kSkinFraction = 0.6;     // skin = this × the largest contact distance (see above)
 constexpr std::size_t kFullRebuildShare = 8;  // rebuild the whole list when more than n/8 moved
+constexpr double kMoveLimit = 0.3;        // search a particle again once it moved this × skin (above)
+constexpr double kBrokenReachExtra = 0.25;  // a broken bond's pair is added within reach + this × skin
+static_assert(3 * kMoveLimit < 1.0 && 4 * kMoveLimit < 1.0 + kBrokenReachExtra,
+              "a pair left out of the list must not close to within the largest contact distance");
 // Calls visit(j) for every unbonded particle j ≠ i within the grid cell size of i, in a fixed order
 // (9 rows of 3 cells; kForwardHalf: only the forward half of them, for_each_near_forward, so that a
 // search of every particle visits each pair once). `stamp` is this (pass, particle)'s unique mark and
@@ -91,7 +98,7 @@ std::uint64_t* stamp_row(ContactPairs& pr, std::size_t n) {
 }
 
 // What the pair list needs before this step's forces: nothing; an update (update_moved_pairs: a search
-// for the particles that moved more than skin/4 since their own last search, marked in pr.moved, and
+// for the particles that moved more than kMoveLimit·skin since their own last search, marked in pr.moved, and
 // the pairs of bonds broken since the last update); or a full rebuild (first step, or more than
 // n/kFullRebuildShare moved).
 // `centroid` is the mean position, a fixed-block sum: the same bits for every thread count, and so is
@@ -119,7 +126,7 @@ PairUpdate pair_update_needed(WorldState& w, std::uint64_t& broken_now, Vec3& ce
                  [](const Vec3& a, const Vec3& b) { return Vec3(a + b); }) /
              double(std::max<std::size_t>(n, 1));
   if (!pr.valid) return PairUpdate::rebuild;
-  const double quarter_skin = 0.25 * pr.skin, limit2 = quarter_skin * quarter_skin;
+  const double limit = kMoveLimit * pr.skin, limit2 = limit * limit;
   const Vec3 c = centroid;
   const std::size_t moved = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n, 4096), std::size_t{0},
@@ -150,11 +157,12 @@ void take_in_breaks(WorldState& w, std::size_t i) {
   pr.broken_seen[i] = w.state.broken_bonds[i];
 }
 
-// A bond k of particle i that broke since the last update, whose ends are now within reach.
+// A bond k of particle i that broke since the last update, whose ends are now within reach + ¼ skin.
 bool newly_broken_in_reach(const WorldState& w, std::size_t i, std::uint32_t k) {
   const auto& b = w.bonds;
   const auto& y = w.particles.position;
-  const double reach2 = w.contact.grid.cell * w.contact.grid.cell;
+  const double add_reach = w.contact.grid.cell + kBrokenReachExtra * w.contact.pairs.skin;
+  const double reach2 = add_reach * add_reach;
   return w.contact.pairs.alive_at_build[k] && !b.alive[k] && (y[b.neighbor[k]] - y[i]).squaredNorm() < reach2;
 }
 
