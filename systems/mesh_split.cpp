@@ -21,12 +21,15 @@
 // faces; the other vertices of the torn faces are grouped again too (a torn face is never fresh, so
 // nothing else would look at them). The surface stays closed (a torn face becomes two boundary
 // triangles) and the edge ends with two triangles per copy. Faces separated by a repair are checked in turn (at most 16 rounds).
-// At setup (split_disconnected_vertices) every vertex is grouped once the same way, so vertices whose
+// At setup (split_disconnected_vertices) every vertex is grouped once the same way (the grouping in
+// parallel, the splits serially in vertex order), so vertices whose
 // star is not face-connected in the input mesh (hanging tets, initial cracks) start split.
 // Serial and in a fixed order: the result does not depend on the thread count. Cost is proportional
 // to the fresh faces (plus one pass over pending faces when there are fresh ones); nothing when no
 // face cracked this step.
 // Reads/writes: mesh (embedded mesh).   Scheduled after crack_faces, only when world.any_fracture.
+#include <oneapi/tbb/parallel_for.h>
+
 #include <algorithm>
 
 #include "systems.hpp"
@@ -67,16 +70,14 @@ struct Scratch {
   std::vector<std::uint32_t> tets, slot, group_of, parent, group;
 };
 
-// Groups v's tets by intact faces containing v and gives every group but the first its own copy.
-std::size_t split_vertex(WorldState& w, std::uint32_t v, Scratch& sc) {
-  EmbeddedMesh& e = w.embedded;
+// Groups v's tets (sc.tets, sc.slot) by the intact faces containing v (sc.group_of); returns how many
+// groups there are. Reads the mesh only.
+std::uint32_t group_tets(const EmbeddedMesh& e, std::uint32_t v, Scratch& sc) {
   auto& tets = sc.tets;
   auto& slot = sc.slot;
-  auto& group_of = sc.group_of;
-  auto& group = sc.group;
   holding(e, v, tets, slot);
   const std::size_t n = tets.size();
-  if (n < 2) return 0;
+  if (n < 2) return static_cast<std::uint32_t>(n);
   auto local = [&](std::uint32_t t) {  // tets is sorted (incidence is in tet order)
     const auto it = std::lower_bound(tets.begin(), tets.end(), t);
     return it != tets.end() && *it == t ? static_cast<std::size_t>(it - tets.begin()) : n;
@@ -93,8 +94,19 @@ std::size_t split_vertex(WorldState& w, std::uint32_t v, Scratch& sc) {
       if (b < n) sets.unite(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b));
     }
   }
-  const std::uint32_t groups = sets.label(group_of);
+  return sets.label(sc.group_of);
+}
+
+// Groups v's tets by intact faces containing v and gives every group but the first its own copy.
+std::size_t split_vertex(WorldState& w, std::uint32_t v, Scratch& sc) {
+  EmbeddedMesh& e = w.embedded;
+  const std::uint32_t groups = group_tets(e, v, sc);
   if (groups < 2) return 0;
+  const auto& tets = sc.tets;
+  const auto& slot = sc.slot;
+  const auto& group_of = sc.group_of;
+  auto& group = sc.group;
+  const std::size_t n = tets.size();
   const bool weights = !e.weight_rows.empty();  // the embedded motion's (ensure_vertex_weights)
   std::size_t copies = 0;
   const std::uint32_t o = e.origin[v];
@@ -281,10 +293,21 @@ std::size_t split_mesh_vertices(WorldState& w) {
 
 std::size_t split_disconnected_vertices(WorldState& w) {
   EmbeddedMesh& e = w.embedded;
+  const auto nv = static_cast<std::uint32_t>(e.vertices.size());
+  // Which vertices split is decided in parallel (read-only), the splits are made serially in vertex
+  // order. That is the same result as splitting every vertex in turn: a split rewrites only the slots
+  // that held the split vertex, so it changes no other original vertex's tets or faces.
+  std::vector<std::uint8_t> splits(nv, 0);
+  constexpr std::size_t kBlock = 4096;
+  tbb::parallel_for(std::size_t{0}, (std::size_t{nv} + kBlock - 1) / kBlock, [&](std::size_t block) {
+    Scratch local;
+    const auto end = static_cast<std::uint32_t>(std::min<std::size_t>(nv, (block + 1) * kBlock));
+    for (auto v = static_cast<std::uint32_t>(block * kBlock); v < end; ++v) splits[v] = group_tets(e, v, local) > 1;
+  });
   Scratch sc;
   std::size_t copies = 0;
-  const auto nv = static_cast<std::uint32_t>(e.vertices.size());
-  for (std::uint32_t v = 0; v < nv; ++v) copies += split_vertex(w, v, sc);
+  for (std::uint32_t v = 0; v < nv; ++v)
+    if (splits[v]) copies += split_vertex(w, v, sc);
   if (copies) {
     std::vector<std::uint32_t> separated;
     separate_pending(e, separated);
