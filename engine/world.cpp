@@ -7,6 +7,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "distributed/decomposition.hpp"
 #include "io/checkpoint.hpp"
 #include "scheduler.hpp"
 #include "setup/world_setup.hpp"
@@ -135,6 +136,17 @@ double World::stable_time_step_bound() const {
 std::vector<SystemTime> World::setup_times() const {
   std::vector<SystemTime> out;
   for (const auto& t : impl_->setup_times) out.push_back({t.name, t.seconds, 1});
+  return out;
+}
+
+std::vector<DomainView> World::decompose(int ranks) const {
+  std::vector<distributed::Domain> domains;
+  impl_->scheduler->execute([&] { domains = distributed::decompose(*impl_->state, ranks); });
+  std::vector<DomainView> out;
+  out.reserve(domains.size());
+  for (const auto& d : domains)
+    out.push_back({d.first, d.last - d.first, d.bonds, static_cast<std::uint32_t>(d.ghosts.size()), d.bond_ghosts,
+                   d.contact_ghosts, static_cast<std::uint32_t>(d.neighbor_ranks.size()), d.halo_bytes_per_step});
   return out;
 }
 

@@ -8,6 +8,7 @@
 
 #include <csignal>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <cmath>
@@ -52,6 +53,7 @@ struct Args {
   std::string command, scene;
   std::string second;  // compare: RUN_B
   std::optional<std::string> out, frames, threads, solver, dt, progress, horizon;
+  std::optional<std::string> ranks;  // info --ranks
   bool quiet = false, overwrite = false, resume = false, force = false;
   bool render = false;  // run --render
   bool profile = false;  // run --profile
@@ -319,6 +321,29 @@ int cmd_info(const Args& a) {
     head << "set-up           " << total << " s (" << phases.str() << ")\n";
     std::cout << head.str();
   }
+  if (a.ranks) {  // the decomposition plan (engine/distributed/decomposition.hpp)
+    const long long ranks = parse_count("--ranks", *a.ranks, 1);
+    if (static_cast<std::size_t>(ranks) > world.particle_count())
+      throw UsageError{"--ranks expects at most the particle count (" + std::to_string(world.particle_count()) +
+                       "), got '" + *a.ranks + "'"};
+    const auto domains = world.decompose(static_cast<int>(ranks));
+    std::uint64_t halo = 0, most_bonds = 0, bonds = 0;
+    for (const auto& d : domains) {
+      halo += d.halo_bytes_per_step;
+      most_bonds = std::max(most_bonds, d.bonds);
+      bonds += d.bonds;
+    }
+    std::cout << "ranks            " << ranks << ": halo " << human_bytes(double(halo))
+              << " per step in all, largest rank " << (bonds ? double(most_bonds) * double(ranks) / double(bonds) : 1.0)
+              << " x the mean bonds\n";
+    std::cout << "rank  first_particle  particles  bonds  ghosts  bond_ghosts  contact_ghosts  neighbors  halo_per_step\n";
+    for (std::size_t r = 0; r < domains.size(); ++r) {
+      const auto& d = domains[r];
+      std::cout << r << "  " << d.first_particle << "  " << d.particle_count << "  " << d.bonds << "  " << d.ghosts
+                << "  " << d.bond_ghosts << "  " << d.contact_ghosts << "  " << d.neighbor_ranks << "  "
+                << human_bytes(double(d.halo_bytes_per_step)) << "\n";
+    }
+  }
   std::cout << "schedule\n" << world.schedule();
   return ok ? kOk : kUnstable;
 }
@@ -549,7 +574,11 @@ int main(int argc, char** argv) {
   run->add_flag("--profile", a.profile, "time every system of the step and print the table at the end (stdout; also "
                                         "\"profile\" in summary.json)");
   scene_options(app.add_subcommand("check", "validate the scene without running it"));
-  scene_options(app.add_subcommand("info", "particles, bonds, memory, the stable time step and the task graph"));
+  CLI::App* info = app.add_subcommand("info", "particles, bonds, memory, the stable time step and the task graph");
+  scene_options(info);
+  text_option(info, "--ranks", a.ranks,
+              "also print how the world would split over N ranks (N >= 1): owned particles, bonds, ghosts and the "
+              "bytes each rank receives per step");
   app.add_subcommand("spec", "print the scene format reference (markdown)");
   CLI::App* compare = app.add_subcommand(
       "compare", "position deviation of run B from reference run A per frame, over A's bounding-box diagonal at "

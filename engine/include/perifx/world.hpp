@@ -85,6 +85,19 @@ struct SystemTime {
   std::uint64_t runs = 0;  // profiled steps it ran in
 };
 
+// One rank's share of the world in a distributed run over N ranks (World::decompose; issue 17 and
+// engine/distributed/decomposition.hpp): a contiguous range of the Morton order with 1/N of the work,
+// and the ghosts it must receive every step.
+struct DomainView {
+  std::uint32_t first_particle = 0, particle_count = 0;
+  std::uint64_t bonds = 0;                 // listed (directed) bonds of the owned particles
+  std::uint32_t ghosts = 0;                // particles it reads but does not own
+  std::uint32_t bond_ghosts = 0;           // of which far ends of owned bonds
+  std::uint32_t contact_ghosts = 0;        // of which only within contact reach (distance + skin)
+  std::uint32_t neighbor_ranks = 0;        // ranks it receives from
+  std::uint64_t halo_bytes_per_step = 0;   // bytes it receives per step
+};
+
 class World {
  public:
   // Loads and validates a scene file (throws scene::SceneError, geometry::GeometryError).
@@ -116,6 +129,9 @@ class World {
   // needs some 20–30 applications of the force (tens of seconds at 1e6 particles).
   double stable_time_step_bound() const;
   MemoryUse memory() const;
+  // How this world would split over `ranks` ranks now (throws std::invalid_argument unless
+  // 1 ≤ ranks ≤ particles). A plan: the world itself keeps running in one process.
+  std::vector<DomainView> decompose(int ranks) const;
   Diagnostics diagnostics() const;
   std::string schedule() const;    // the task graph, one system per line
   // Per-system wall time of the steps taken while profiling is on (off by default; costs two clock

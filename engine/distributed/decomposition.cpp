@@ -1,0 +1,105 @@
+// Domain decomposition plan (decomposition.hpp has the rules).
+#include "distributed/decomposition.hpp"
+
+#include <oneapi/tbb/parallel_for.h>
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+#include "systems/spatial_grid.hpp"
+
+namespace perifx::distributed {
+
+std::vector<Domain> split_by_work(const WorldState& w, int ranks) {
+  const std::size_t n = w.particles.count();
+  if (ranks < 1 || static_cast<std::size_t>(ranks) > n)
+    throw std::invalid_argument("ranks: " + std::to_string(ranks) + " (expected 1 to the particle count, " +
+                                std::to_string(n) + ")");
+  const auto& offsets = w.bonds.offsets;
+  auto work_before = [&](std::size_t i) {  // Σ work of particles [0, i)
+    return std::uint64_t{offsets[i]} + kParticleWork * i;
+  };
+  const std::uint64_t total = work_before(n);
+  const auto r_count = static_cast<std::size_t>(ranks);
+  std::vector<Domain> domains(r_count);
+  std::size_t first = 0;
+  for (std::size_t r = 0; r < r_count; ++r) {
+    // The first particle whose work starts at or after the (r+1)-th share; every rank keeps at least
+    // one particle and leaves one for each rank after it.
+    std::size_t last = n;
+    if (r + 1 < r_count) {
+      const std::uint64_t target = total * (r + 1) / r_count;
+      std::size_t lo = first + 1, hi = n - (r_count - r - 1);
+      while (lo < hi) {  // smallest last in [first+1, hi] with work_before(last) ≥ target
+        const std::size_t mid = lo + (hi - lo) / 2;
+        if (work_before(mid) >= target) hi = mid;
+        else lo = mid + 1;
+      }
+      last = lo;
+    }
+    Domain& d = domains[r];
+    d.first = static_cast<std::uint32_t>(first);
+    d.last = static_cast<std::uint32_t>(last);
+    d.bonds = std::uint64_t{offsets[last]} - offsets[first];
+    d.work = work_before(last) - work_before(first);
+    first = last;
+  }
+  return domains;
+}
+
+void find_ghosts(const WorldState& w, std::vector<Domain>& domains) {
+  const std::size_t n = w.particles.count();
+  const auto& y = w.particles.position;
+  const auto& b = w.bonds;
+  const double reach = w.contact.enabled ? w.contact.largest_distance + w.contact.pairs.skin : 0.0;
+  SpatialGrid grid;
+  if (reach > 0.0) {
+    systems::allocate_grid(grid, n, reach);
+    systems::build_grid(grid, y);
+  }
+  // Owner of every particle, for the neighbour ranks.
+  std::vector<std::uint32_t> owner(n);
+  for (std::size_t r = 0; r < domains.size(); ++r)
+    std::fill(owner.begin() + domains[r].first, owner.begin() + domains[r].last, static_cast<std::uint32_t>(r));
+  tbb::parallel_for(std::size_t{0}, domains.size(), [&](std::size_t r) {
+    Domain& d = domains[r];
+    // 1 = bond ghost, 2 = contact ghost only.
+    std::vector<std::uint8_t> kind(n, 0);
+    for (std::uint32_t i = d.first; i < d.last; ++i)
+      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
+        const std::uint32_t j = b.neighbor[k];
+        if (j < d.first || j >= d.last) kind[j] = 1;
+      }
+    if (reach > 0.0) {
+      const double reach2 = reach * reach;
+      for (std::uint32_t i = d.first; i < d.last; ++i)
+        systems::for_each_near(grid, y[i], [&](std::uint32_t q) {
+          const std::uint32_t j = grid.sorted[q];
+          if ((j >= d.first && j < d.last) || kind[j] != 0) return;
+          if ((grid.sorted_position[q] - y[i]).squaredNorm() < reach2) kind[j] = 2;
+        });
+    }
+    d.ghosts.clear();
+    d.bond_ghosts = d.contact_ghosts = 0;
+    std::vector<std::uint8_t> neighbor(domains.size(), 0);
+    for (std::size_t j = 0; j < n; ++j) {
+      if (kind[j] == 0) continue;
+      d.ghosts.push_back(static_cast<std::uint32_t>(j));
+      ++(kind[j] == 1 ? d.bond_ghosts : d.contact_ghosts);
+      neighbor[owner[j]] = 1;
+    }
+    d.neighbor_ranks.clear();
+    for (std::size_t s = 0; s < domains.size(); ++s)
+      if (neighbor[s]) d.neighbor_ranks.push_back(static_cast<std::uint32_t>(s));
+    d.halo_bytes_per_step = std::uint64_t{d.ghosts.size()} * kGhostBytesPerStep;
+  });
+}
+
+std::vector<Domain> decompose(const WorldState& w, int ranks) {
+  auto domains = split_by_work(w, ranks);
+  find_ghosts(w, domains);
+  return domains;
+}
+
+}  // namespace perifx::distributed
