@@ -26,6 +26,9 @@ struct Clock {
   double time = 0.0;         // s, at the start of the current step
   double dt = 1e-4;          // s
   std::uint64_t step = 0;    // steps completed
+  // The step at whose end a bond had first broken (initial cracks do not count); kNoBreak until then.
+  static constexpr std::uint64_t kNoBreak = ~std::uint64_t{0};
+  std::uint64_t first_break_step = kNoBreak;
 };
 
 // Particle index lists resolved at setup (regions are tested once, on reference positions).

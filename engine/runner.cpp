@@ -412,6 +412,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
       step_wall > 0 ? double(bonds) * double(world.step_count() - session_step) / step_wall : 0.0;
   summary.threads = world.threads();
   summary.contact_list_builds = world.contact_counters().list_builds;
+  summary.first_break_time = world.first_break_time();
   summary.contact_list_additions = world.contact_counters().list_additions;
   summary.contact_list_partial_updates = world.contact_counters().list_partial_updates;
   summary.contact_list_searched = world.contact_counters().list_searched;
@@ -425,6 +426,8 @@ RunSummary run_world(World& world, const RunOptions& options) {
   js["bonds"] = summary.bonds;
   js["alive_bonds"] = summary.alive_bonds;
   js["fragments"] = summary.fragments;
+  js["first_break_time"] = summary.first_break_time ? nlohmann::ordered_json(*summary.first_break_time)
+                                                    : nlohmann::ordered_json(nullptr);
   js["steps"] = summary.steps;
   js["frames"] = summary.frames;
   js["dt"] = world.dt();

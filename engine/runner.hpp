@@ -44,6 +44,7 @@ struct RunOptions {
 struct RunSummary {
   std::size_t particles = 0, bonds = 0, alive_bonds = 0;
   std::size_t fragments = 0;          // connected components of alive bonds at the end
+  std::optional<double> first_break_time;  // s: end of the step in which a bond first broke (World::first_break_time)
   std::uint64_t steps = 0, frames = 0;
   double simulated_seconds = 0.0;
   double wall_seconds = 0.0;          // stepping only (setup and file output excluded)

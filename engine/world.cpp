@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <limits>
 #include <optional>
+
+#include <oneapi/tbb/parallel_reduce.h>
 #include <stdexcept>
 
 #include "distributed/decomposition.hpp"
@@ -54,6 +56,30 @@ void World::step() {
   ++c.step;
   c.time = static_cast<double>(c.step) * c.dt;  // no drift from summing dt
   if (impl_->state->state.unstable_particle != ParticleState::kAllStable) throw_instability();
+  if (c.first_break_step == Clock::kNoBreak && impl_->state->any_fracture && any_bond_broken()) c.first_break_step = c.step;
+}
+
+// One pass over the per-particle broken-bond counts (N_i − n_i, kept by the bond pass): run after
+// every step only until the first break is seen.
+bool World::any_bond_broken() const {
+  const auto& broken = impl_->state->state.broken_bonds;
+  bool any = false;
+  impl_->scheduler->execute([&] {
+    any = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, broken.size(), 4096), false,
+        [&](const tbb::blocked_range<std::size_t>& r, bool found) {
+          for (std::size_t i = r.begin(); i != r.end() && !found; ++i) found = broken[i] != 0;
+          return found;
+        },
+        [](bool a, bool b) { return a || b; });
+  });
+  return any;
+}
+
+std::optional<double> World::first_break_time() const {
+  const auto& c = impl_->state->clock;
+  if (c.first_break_step == Clock::kNoBreak) return std::nullopt;
+  return static_cast<double>(c.first_break_step) * c.dt;
 }
 
 // One line naming the scene, body, particle, position, step and time, with what was expected and a

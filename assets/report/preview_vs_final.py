@@ -5,7 +5,9 @@ pair it runs the preview and the full scene over the time both cover and reports
 * motion deviation: `perifx compare FULL PREVIEW` (the full run's particle motion fitted at the
   preview's particles, per frame, over the full run's bounding-box diagonal; the paper's measure),
   mean and max over the frames both runs wrote;
-* fracture onset: the first frame time at which any bond has broken, in each run;
+* fracture onset: summary.json's `first_break_time` (the end of the step in which a bond first broke)
+  when both runs have it, else the first frame time at which any bond has broken (runs before
+  2026-12-03; one frame's resolution);
 * fragments at the end (summary.json; every piece, single-particle dust included, so it grows with
   the particle count), the pieces holding at least 1 % of the mass (a count that can agree across
   resolutions) and the mass fraction of the largest piece (last frame's fragment_id and mass).
@@ -79,6 +81,7 @@ def run_stats(run):
     total = sum(pieces.values())
     return {"fragments": summary["fragments"], "largest_piece": max(pieces.values()) / total if total else 0.0,
             "pieces_1pct": sum(1 for m in pieces.values() if total and m >= 0.01 * total),
+            "onset_frame_s": onset_time, "first_break_s": summary.get("first_break_time", "absent"),
             "onset_s": onset_time, "particles": summary["particles"], "step_wall_s": summary["step_wall_seconds"]}
 
 
@@ -128,6 +131,8 @@ def main():
         overall = [row for row in rows if row and row[0] == "overall"][0]
         dev_max, dev_mean = float(overall[2]), float(overall[3])
         p, f = run_stats(runs["preview"]), run_stats(runs["full"])
+        if p["first_break_s"] != "absent" and f["first_break_s"] != "absent":  # step resolution for both
+            p["onset_s"], f["onset_s"] = p["first_break_s"], f["first_break_s"]
         model = a.normalization or json.load(open(os.path.join(PAPER, f"{name}.full.json"))).get("model", {}).get(
             "normalization", "corrected")
         if not a.normalization:

@@ -146,3 +146,32 @@ TEST_CASE("stable_time_step_bound(): a lower bound on the Lanczos estimate, with
     CHECK(bound >= estimate / 3.0);
   }
 }
+
+TEST_CASE("first_break_time(): the end of the first step in which a bond broke, empty before and without fracture") {
+  // A box whose two halves fly apart: bonds across the middle stretch past s_c within a few steps.
+  auto sc = test::box_scene(Vec3(0.06, 0.02, 0.02), 0.005, 3e6, 2e6);
+  sc.materials[0].critical_stretch = 0.002;
+  World world(sc);
+  const auto x = world.reference_positions();
+  auto v = world.velocities_mutable();
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = Vec3(x[i].x() > 0.0 ? 2.0 : -2.0, 0.0, 0.0);
+  const std::size_t bonds = world.bond_count();
+  REQUIRE(world.alive_bond_count() == bonds);
+  CHECK(!world.first_break_time());
+  double expected = -1.0;
+  for (int s = 0; s < 200 && expected < 0.0; ++s) {
+    world.step();
+    if (world.alive_bond_count() < bonds) expected = world.time();
+    else CHECK(!world.first_break_time());
+  }
+  REQUIRE(expected > 0.0);
+  REQUIRE(world.first_break_time());
+  CHECK(*world.first_break_time() == expected);
+  world.step(5);  // stays at the first break
+  CHECK(*world.first_break_time() == expected);
+
+  auto elastic = test::box_scene(Vec3(0.06, 0.02, 0.02), 0.005, 3e6, 2e6);
+  World intact(elastic);
+  intact.step(20);
+  CHECK(!intact.first_break_time());
+}

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -119,6 +120,9 @@ class World {
   std::size_t bond_count() const;       // directed bonds (each pair counts twice)
   std::size_t alive_bond_count() const;
   std::size_t fragment_count() const;  // connected components of alive bonds
+  // Simulated time at the end of the step in which a bond first broke (initial cracks do not count);
+  // empty while none has. Kept across resume.
+  std::optional<double> first_break_time() const;
   int threads() const;
 
   // The largest stable explicit step of this world's elastic model (the largest eigenfrequency of
@@ -180,6 +184,7 @@ class World {
 
  private:
   [[noreturn]] void throw_instability() const;
+  bool any_bond_broken() const;  // any particle has a broken bond now (step(): the first break)
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
