@@ -126,6 +126,8 @@ PYBIND11_MODULE(perifx, m) {
       .def_property_readonly("bond_count", &World::bond_count, "directed bonds (each pair counts twice)")
       .def_property_readonly("alive_bond_count", &World::alive_bond_count)
       .def_property_readonly("fragment_count", &World::fragment_count, "pieces: connected components of alive bonds")
+      .def_property_readonly("first_break_time", &World::first_break_time,
+                             "s: end of the step in which a bond first broke (initial cracks do not count); None before")
       .def_property_readonly("threads", &World::threads)
       .def_property_readonly("name", [](const World& w) { return w.scene().name; })
       .def("stable_time_step", &World::stable_time_step)

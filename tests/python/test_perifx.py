@@ -87,6 +87,7 @@ def test_surface_and_pieces():
     pieces = w.pieces()
     assert pieces.shape == (w.particle_count,)
     assert len(np.unique(pieces)) == w.fragment_count > 1
+    assert 0 < w.first_break_time <= w.time        # the wall broke, and the time says when
 
 
 def test_errors_are_perifx_exceptions_with_one_line_messages(tmp_path):
