@@ -288,6 +288,7 @@ bool report_time_step(const perifx::World& world, std::ostream& out) {
 }
 
 int cmd_info(const Args& a) {
+  const long long ranks = a.ranks ? parse_count("--ranks", *a.ranks, 1) : 0;  // before the (long) set-up
   perifx::World world(load(a));
   const auto mem = world.memory();
   std::cout << "scene            " << world.scene().name << "\n";
@@ -322,7 +323,6 @@ int cmd_info(const Args& a) {
     std::cout << head.str();
   }
   if (a.ranks) {  // the decomposition plan (engine/distributed/decomposition.hpp)
-    const long long ranks = parse_count("--ranks", *a.ranks, 1);
     if (static_cast<std::size_t>(ranks) > world.particle_count())
       throw UsageError{"--ranks expects at most the particle count (" + std::to_string(world.particle_count()) +
                        "), got '" + *a.ranks + "'"};
@@ -336,12 +336,16 @@ int cmd_info(const Args& a) {
     std::cout << "ranks            " << ranks << ": halo " << human_bytes(double(halo))
               << " per step in all, largest rank " << (bonds ? double(most_bonds) * double(ranks) / double(bonds) : 1.0)
               << " x the mean bonds\n";
-    std::cout << "rank  first_particle  particles  bonds  ghosts  bond_ghosts  contact_ghosts  neighbors  halo_per_step\n";
+    // A rank would hold its particles' and bonds' arrays plus a particle's arrays per ghost, at this
+    // world's bytes per particle and per bond (the mesh and contact arrays are not counted).
+    std::cout << "rank  first_particle  particles  bonds  ghosts  bond_ghosts  contact_ghosts  neighbors  halo_per_step"
+                 "  memory\n";
     for (std::size_t r = 0; r < domains.size(); ++r) {
       const auto& d = domains[r];
+      const double bytes = double(d.particle_count + d.ghosts) * mem.bytes_per_particle + double(d.bonds) * mem.bytes_per_bond;
       std::cout << r << "  " << d.first_particle << "  " << d.particle_count << "  " << d.bonds << "  " << d.ghosts
                 << "  " << d.bond_ghosts << "  " << d.contact_ghosts << "  " << d.neighbor_ranks << "  "
-                << human_bytes(double(d.halo_bytes_per_step)) << "\n";
+                << human_bytes(double(d.halo_bytes_per_step)) << "  " << human_bytes(bytes) << "\n";
     }
   }
   std::cout << "schedule\n" << world.schedule();

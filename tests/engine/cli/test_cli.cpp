@@ -165,3 +165,27 @@ TEST_CASE("cli: summary.json is valid JSON for a scene name with quotes and back
   CHECK(summary.at("frames").get<int>() == 1);
   fs::remove_all(dir);
 }
+
+TEST_CASE("cli: info --ranks N prints one row per rank covering every particle; a bad N is a usage error") {
+  const fs::path dir = temp_dir("info_ranks");
+  const fs::path scene = write(dir, "scene.json", kScene);
+  const auto r = run_cli("info " + scene.string() + " --ranks 3");
+  REQUIRE(r.code == 0);
+  std::istringstream lines(r.output);
+  std::size_t rows = 0, owned = 0, particles = 0;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("particles        ", 0) == 0) particles = std::stoul(line.substr(17));
+    unsigned rank = 0, first = 0, count = 0;
+    if (std::sscanf(line.c_str(), "%u %u %u", &rank, &first, &count) == 3) {  // a rank row (the schedule's rows are "N name")
+      CHECK(rank == rows);
+      CHECK(first == owned);  // contiguous ranges in rank order
+      owned += count;
+      ++rows;
+    }
+  }
+  CHECK(rows == 3);
+  CHECK(owned == particles);
+  const auto bad = run_cli("info " + scene.string() + " --ranks 0");
+  CHECK(bad.code == 1);
+  CHECK(bad.output.find("--ranks expects an integer >= 1") != std::string::npos);
+}
