@@ -1,12 +1,12 @@
 #include "perifx/world.hpp"
 
+#include <oneapi/tbb/parallel_reduce.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <optional>
-
-#include <oneapi/tbb/parallel_reduce.h>
 #include <stdexcept>
 
 #include "distributed/decomposition.hpp"
