@@ -14,8 +14,10 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <limits>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -323,10 +325,12 @@ int cmd_info(const Args& a) {
     std::cout << head.str();
   }
   if (a.ranks) {  // the decomposition plan (engine/distributed/decomposition.hpp)
-    if (static_cast<std::size_t>(ranks) > world.particle_count())
-      throw UsageError{"--ranks expects at most the particle count (" + std::to_string(world.particle_count()) +
-                       "), got '" + *a.ranks + "'"};
-    const auto domains = world.decompose(static_cast<int>(ranks));
+    std::vector<perifx::DomainView> domains;
+    try {
+      domains = world.decompose(static_cast<int>(std::min<long long>(ranks, std::numeric_limits<int>::max())));
+    } catch (const std::invalid_argument& e) {  // more ranks than particles
+      throw UsageError{std::string("--ranks ") + e.what()};
+    }
     std::uint64_t halo = 0, most_bonds = 0, bonds = 0;
     for (const auto& d : domains) {
       halo += d.halo_bytes_per_step;

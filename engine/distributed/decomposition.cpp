@@ -14,8 +14,8 @@ namespace perifx::distributed {
 std::vector<Domain> split_by_work(const WorldState& w, int ranks) {
   const std::size_t n = w.particles.count();
   if (ranks < 1 || static_cast<std::size_t>(ranks) > n)
-    throw std::invalid_argument("ranks: " + std::to_string(ranks) + " (expected 1 to the particle count, " +
-                                std::to_string(n) + ")");
+    throw std::invalid_argument("expects 1 to the particle count (" + std::to_string(n) + "), got " +
+                                std::to_string(ranks));
   const auto& offsets = w.bonds.offsets;
   auto work_before = [&](std::size_t i) {  // Σ work of particles [0, i)
     return std::uint64_t{offsets[i]} + kParticleWork * i;

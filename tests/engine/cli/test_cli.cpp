@@ -188,4 +188,7 @@ TEST_CASE("cli: info --ranks N prints one row per rank covering every particle; 
   const auto bad = run_cli("info " + scene.string() + " --ranks 0");
   CHECK(bad.code == 1);
   CHECK(bad.output.find("--ranks expects an integer >= 1") != std::string::npos);
+  const auto many = run_cli("info " + scene.string() + " --ranks 100000000");
+  CHECK(many.code == 1);
+  CHECK(many.output.find("--ranks expects 1 to the particle count") != std::string::npos);
 }
