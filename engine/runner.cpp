@@ -111,6 +111,30 @@ void remove_files(const std::vector<fs::path>& files) {
 
 using PvdEntries = std::vector<std::pair<double, std::string>>;
 
+// A distributed run on a rank other than 0: the same steps, gathers and stop decisions as rank 0's
+// run_world makes, in the same order (each is collective), and no files.
+template <class StepOfFrame>
+RunSummary follow_run(World& world, const RunOptions& options, std::uint64_t frames, StepOfFrame step_of_frame) {
+  RunSummary summary;
+  summary.output_directory = options.output_directory ? *options.output_directory : world.scene().output.directory;
+  const std::uint64_t first_step = world.step_count();
+  world.gather();  // frame 0
+  for (std::uint64_t k = 1; k <= frames; ++k) {
+    const std::uint64_t target = first_step + step_of_frame(k);
+    while (world.step_count() < target) world.step();
+    world.gather();
+    summary.last_frame = k;
+    if (world.broadcast(false)) {
+      summary.interrupted = true;
+      break;
+    }
+  }
+  summary.frames = frames;
+  summary.steps = world.step_count() - first_step;
+  summary.threads = world.threads();
+  return summary;
+}
+
 // glTF keyframes of the final pieces `ids` (increasing): per recorded frame the best-fit rigid motion
 // of the piece, or of the piece it split from when it did not exist yet (reference pose if neither).
 std::vector<io::RigidPieceTrack> piece_tracks(const AnimationHistory& history, const std::vector<std::uint32_t>& ids) {
@@ -186,14 +210,28 @@ RunSummary run_world(World& world, const RunOptions& options) {
   io::PvdSeries surface_pvd(summary.output_directory / "surface.pvd");
   io::PvdSeries tets_pvd(summary.output_directory / "tets.pvd");
   bool mesh_output = sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || sc.output.tets_vtu;
+  bool animation = sc.output.cache || sc.output.gltf;
+  // A distributed run steps no embedded mesh (engine/distributed/local_world.hpp): it writes the
+  // particle frames only, and refuses surface formats a scene asks for by name.
+  const bool distributed = world.distributed();
+  if (distributed) {
+    if ((mesh_output || animation || sc.output.dust_points) && !sc.output.surfaces_by_default)
+      throw std::invalid_argument("output formats obj/surface_ply/surface_vtp/tets_vtu/cache/gltf/dust are not "
+                                  "written by distributed runs yet (the split mesh is not distributed): run this "
+                                  "scene in one process, or ask for vtu/ply particles only");
+    if (options.existing == ExistingRun::resume)
+      throw std::invalid_argument("--resume is not available in distributed runs yet (they write no checkpoint)");
+    mesh_output = animation = false;
+  }
+  const bool has_mesh = world.has_embedded_mesh() && !distributed;
   // Surfaces the scene did not ask for (the default) are left out of runs without a split mesh (FEM).
-  if (mesh_output && !world.has_embedded_mesh() && sc.output.surfaces_by_default) mesh_output = false;
-  if (mesh_output && !world.has_embedded_mesh())
+  if (mesh_output && !has_mesh && sc.output.surfaces_by_default) mesh_output = false;
+  if (mesh_output && !has_mesh)
     throw std::invalid_argument("output formats obj/surface_ply/surface_vtp/tets_vtu need the embedded tet mesh "
                                 "(solver 'peridynamics')");
+  if (distributed && world.rank() != 0) return follow_run(world, options, frames, step_of_frame);
   io::remove_stale_temporaries(summary.output_directory);  // *.tmp-<pid> of killed runs
-  bool animation = sc.output.cache || sc.output.gltf;
-  if (animation && !world.has_embedded_mesh()) {
+  if (animation && !has_mesh) {
     if (!sc.output.surfaces_by_default)
       throw std::invalid_argument("output formats cache/gltf need the embedded tet mesh (solver 'peridynamics')");
     animation = false;
@@ -253,9 +291,10 @@ RunSummary run_world(World& world, const RunOptions& options) {
 
   double step_wall = 0.0, output_wall = 0.0;
   SurfaceMesh last_surface;  // the last written frame's surface (the animation exports' topology)
-  const bool dust = sc.output.dust_points && sc.output.min_piece_tets > 0;
+  const bool dust = sc.output.dust_points && sc.output.min_piece_tets > 0 && has_mesh;
   auto write_frame = [&](std::uint64_t k) {
     const auto t0 = clock::now();
+    world.gather();  // a distributed run's state, into rank 0's world (nothing in one process)
     const auto fields = selected_fields(world);
     const std::vector<Vec3> points(world.positions().begin(), world.positions().end());
     if (sc.output.vtu) {
@@ -289,7 +328,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
       }
     }
     // Dust (output.dust = points): the particles of the pieces the surface leaves out, as PLY points.
-    if (dust && world.has_embedded_mesh()) {
+    if (dust) {
       const std::vector<std::uint32_t> dust_ids = world.dust_particles();
       const auto y = world.positions();
       const auto v = world.velocities();
@@ -368,8 +407,9 @@ RunSummary run_world(World& world, const RunOptions& options) {
     step_wall += std::chrono::duration<double>(clock::now() - t0).count();
     write_frame(k);
     summary.last_frame = k;
-    const bool stop = options.stop_requested && options.stop_requested() && k < frames;
-    if (stop || (every > 0 && (k % every == 0 || k == frames))) write_checkpoint(k);
+    // Rank 0 decides for every rank (follow_run makes the same call).
+    const bool stop = world.broadcast(options.stop_requested && options.stop_requested() && k < frames);
+    if (!distributed && (stop || (every > 0 && (k % every == 0 || k == frames)))) write_checkpoint(k);
     if (options.on_frame) {
       RunProgress pr;
       pr.frame = k;

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "distributed/decomposition.hpp"
+#include "distributed/runtime.hpp"
 #include "io/checkpoint.hpp"
 #include "scheduler.hpp"
 #include "setup/world_setup.hpp"
@@ -32,6 +33,7 @@ struct World::Impl {
   double stable_dt = 0.0;
   std::optional<double> stable_bound;  // World::stable_time_step_bound, once computed
   std::vector<setup::PhaseTime> setup_times;  // construction phases, then the stable-step estimate
+  std::unique_ptr<distributed::Runtime> runtime;  // distribute(): this rank's local world and halos
 
   ~Impl() { scheduler.reset(); }  // the graph's nodes reference the state; tear them down first
 };
@@ -51,6 +53,24 @@ World& World::operator=(World&&) noexcept = default;
 World::~World() = default;
 
 void World::step() {
+  if (impl_->runtime) {
+    WorldState& w = *impl_->state;
+    const bool check_broken = w.any_fracture && w.clock.first_break_step == Clock::kNoBreak;
+    const distributed::StepReport report = impl_->runtime->step(check_broken);
+    auto& c = w.clock;
+    ++c.step;
+    c.time = static_cast<double>(c.step) * c.dt;
+    if (report.unstable_particle != ParticleState::kAllStable) {
+      gather();  // the message names the particle's state, which rank 0 then holds
+      if (rank() != 0)
+        throw InstabilityError("unstable simulation at step " + std::to_string(c.step) + " (rank 0 reports it)",
+                               c.step, report.unstable_particle);
+      w.state.unstable_particle = report.unstable_particle;
+      throw_instability();
+    }
+    if (check_broken && report.any_broken) c.first_break_step = c.step;
+    return;
+  }
   impl_->scheduler->run_step();
   auto& c = impl_->state->clock;
   ++c.step;
@@ -175,6 +195,28 @@ std::vector<DomainView> World::decompose(int ranks) const {
                    d.contact_ghosts, static_cast<std::uint32_t>(d.neighbor_ranks.size()), d.halo_bytes_per_step});
   return out;
 }
+
+void World::distribute() {
+  if (impl_->runtime) throw std::logic_error("World::distribute: already distributed");
+  impl_->runtime = std::make_unique<distributed::Runtime>(*impl_->state, impl_->scheduler->threads());
+  if (impl_->runtime->rank() != 0) {
+    // Rank 0 writes the output from its full world; the others step their local worlds only.
+    for_each_array(*impl_->state, [](ArrayKind, const char*, auto& array) {
+      std::remove_reference_t<decltype(array)>().swap(array);
+    });
+  }
+}
+
+void World::gather() {
+  if (!impl_->runtime) return;
+  impl_->runtime->gather(*impl_->state);
+  std::fill(impl_->computed_at.begin(), impl_->computed_at.end(), Impl::kStale);
+}
+
+bool World::broadcast(bool flag) { return impl_->runtime ? impl_->runtime->broadcast(flag) : flag; }
+int World::rank() const { return impl_->runtime ? impl_->runtime->rank() : 0; }
+int World::ranks() const { return impl_->runtime ? impl_->runtime->ranks() : 1; }
+bool World::distributed() const { return impl_->runtime != nullptr; }
 
 MemoryUse World::memory() const {
   MemoryUse m;

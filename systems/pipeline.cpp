@@ -6,11 +6,12 @@
 //   → (projectile_contact) → kick_end
 //   → (fracture_threshold) → (crack_faces → mesh_split) → (mesh_rotations → mesh_vertices)
 //                                                                               (embedded mesh, §5.2)
+// Distributed runs add the halo exchanges (halo_motion after colliders, halo_dilatation after
+// dilatation, halo_threshold after fracture_threshold) and leave the embedded-mesh systems out.
 // FEM mode replaces dilatation + bond_pass by fem_force. The scheduler derives the actual graph from
 // each system's declared reads and writes; this order only settles who comes first on shared data.
 #include "pipeline.hpp"
 
-#include "field_registry.hpp"
 #include "field_registry.hpp"
 #include "systems.hpp"
 
@@ -25,12 +26,17 @@ std::vector<SystemDecl> step_pipeline(WorldState& w, PipelineOptions options) {
   s.push_back(drift_system(w));
   if (!w.projectiles.bodies.empty()) s.push_back(projectile_drift_system(w));
   s.push_back(collider_system(w));
+  const auto* halo = options.halo;
+  if (halo)
+    s.push_back({"halo_motion", {Component::position, Component::velocity}, {Component::position, Component::velocity},
+                 halo->motion});
   // Contact reads the bonds as they were at the start of the step (before this step's breaks).
   if (w.contact.enabled) s.push_back(contact_system(w));
   if (fem) {
     s.push_back(fem_force_system(w));
   } else {
     s.push_back(dilatation_system(w));
+    if (halo) s.push_back({"halo_dilatation", {Component::dilatation}, {Component::dilatation}, halo->dilatation});
     if (separate) {
       if (w.any_plastic) s.push_back(plasticity_system(w));
       s.push_back(elastic_force_system(w));
@@ -46,9 +52,11 @@ std::vector<SystemDecl> step_pipeline(WorldState& w, PipelineOptions options) {
     s.push_back(damage_system(w));
   }
   if (w.any_fracture) s.push_back(fracture_threshold_system(w));
+  if (halo && w.any_fracture)
+    s.push_back({"halo_threshold", {Component::fracture_threshold}, {Component::fracture_threshold}, halo->threshold});
   // Embedded mesh (§5.2): crack faces and vertex splitting when bonds can break; vertex motion when
   // anything uses the mesh surface (fracture, or surface/tet output requested).
-  if (!fem) {
+  if (!fem && options.embedded_mesh) {
     if (w.any_fracture) s.push_back(crack_face_system(w));
     if (w.any_fracture) s.push_back(mesh_split_system(w));
     if (w.any_fracture || w.settings.mesh_output) {

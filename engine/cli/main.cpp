@@ -23,6 +23,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "distributed/runtime.hpp"
 #include "geometry/geometry.hpp"
 #include "io/atomic.hpp"
 #include "perifx/world.hpp"
@@ -63,6 +64,7 @@ struct Args {
   // crack-stats
   std::optional<std::string> frame, mirror, mirror_at, load_axis, axis_tolerance, radius;
   bool include_initial = false;
+  const perifx::distributed::MpiSession* mpi = nullptr;  // run under mpirun: distribute the world
 };
 
 long long parse_count(const std::string& flag, const std::string& value, long long min) {
@@ -396,6 +398,10 @@ int cmd_run(const Args& a) {
               << world.bond_count() << " bonds, " << world.threads() << " threads\n";
   std::ostringstream silent;  // --quiet / json: the time-step report is dropped (its error still goes to stderr)
   if (!report_time_step(world, talk ? std::cerr : silent)) return kUnstable;
+  if (a.mpi && a.mpi->active()) {
+    world.distribute();
+    if (talk) std::cerr << "perifx: distributed over " << world.ranks() << " MPI ranks\n";
+  }
   perifx::RunOptions opt;
   if (a.out) opt.output_directory = *a.out;
   opt.frames = frames;
@@ -439,7 +445,9 @@ int cmd_run(const Args& a) {
   }
   if (a.profile) std::cout << "profile (" << s.threads << " threads):\n" << perifx::profile_table(s) << std::flush;
   if (s.interrupted) {
-    if (!a.quiet) std::cerr << "perifx: interrupted after frame " << s.last_frame << "; continue with --resume\n";
+    if (!a.quiet)
+      std::cerr << "perifx: interrupted after frame " << s.last_frame
+                << (world.distributed() ? " (distributed runs cannot resume yet)\n" : "; continue with --resume\n");
     return kInterrupted;
   }
   if (a.render) {
@@ -550,7 +558,35 @@ int run_command(const Args& a) {
 
 }  // namespace
 
+int cli_main(int argc, char** argv, const perifx::distributed::MpiSession& mpi);
+
+// Under mpirun every rank runs the same command; rank 0 alone prints. An error that leaves one rank
+// behind would hang the others in their next exchange, so a distributed error stops the whole job
+// (MPI_Abort) with the command's exit code.
 int main(int argc, char** argv) {
+  try {
+    perifx::distributed::MpiSession mpi(argc, argv);
+    if (!mpi.active() && perifx::distributed::launcher_ranks() > 1) {
+      std::cerr << "perifx: started by mpirun with " << perifx::distributed::launcher_ranks()
+                << " ranks, but this perifx was built without MPI (configure with -DPERIFX_MPI=ON); each rank would "
+                   "run the whole scene into the same files\n";
+      return kUsage;
+    }
+    std::ostringstream muted;
+    std::streambuf* const out = std::cout.rdbuf();
+    std::streambuf* const err = std::cerr.rdbuf();
+    if (mpi.rank() != 0) std::cout.rdbuf(muted.rdbuf()), std::cerr.rdbuf(muted.rdbuf());
+    const int code = cli_main(argc, argv, mpi);
+    std::cout.rdbuf(out), std::cerr.rdbuf(err);
+    if (code != kOk && code != kInterrupted && mpi.ranks() > 1) mpi.abort(code);
+    return code;
+  } catch (const std::exception& e) {
+    std::cerr << "perifx: internal error: " << e.what() << "\n";
+    return kInternal;
+  }
+}
+
+int cli_main(int argc, char** argv, const perifx::distributed::MpiSession& mpi) {
   CLI::App app{"perifx: peridynamics-based fracture animation of elastoplastic solids", "perifx"};
   app.set_version_flag("--version", std::string("perifx ") + PERIFX_VERSION);
   app.require_subcommand(1);
@@ -659,6 +695,7 @@ int main(int argc, char** argv) {
     return kUsage;
   }
   for (CLI::App* sub : app.get_subcommands()) a.command = sub->get_name();
+  a.mpi = &mpi;
   try {
     if (a.command == "render") return perifx::render::render_command(render_options(r), r.quiet);
     return run_command(a);

@@ -136,6 +136,20 @@ class World {
   // How this world would split over `ranks` ranks now (throws std::invalid_argument unless
   // 1 ≤ ranks ≤ particles). A plan: the world itself keeps running in one process.
   std::vector<DomainView> decompose(int ranks) const;
+
+  // Distributed runs (issue 17; a PERIFX_MPI build started by mpirun). distribute() splits this world
+  // over the MPI job's ranks, every rank calling it on the same world: from then on step() advances
+  // this rank's share and exchanges halos with the others, bit-identical to one process. On rank 0
+  // the accessors show the whole world as of the last gather(); on other ranks the world's arrays are
+  // released and only the clock, scene and counts of step() remain. Particle contact, projectiles and
+  // the FEM solvers are not distributed yet (std::invalid_argument); a build without MPI throws
+  // std::runtime_error. All four calls are collective: every rank makes them in the same order.
+  void distribute();
+  void gather();                    // rank 0's view of every particle and bond becomes current
+  bool broadcast(bool flag);        // rank 0's flag, on every rank (the same answer in one process)
+  int rank() const;                 // 0 in one process
+  int ranks() const;                // 1 in one process (and before distribute())
+  bool distributed() const;
   Diagnostics diagnostics() const;
   std::string schedule() const;    // the task graph, one system per line
   // Per-system wall time of the steps taken while profiling is on (off by default; costs two clock

@@ -1,0 +1,31 @@
+// The distributed runtime in a build without PERIFX_MPI: MPI is never started, and asking for a
+// distributed run says how to get one (runtime.hpp has the contract).
+#include <cstdlib>
+#include <stdexcept>
+
+#include "distributed/runtime.hpp"
+
+namespace perifx::distributed {
+namespace {
+[[noreturn]] void not_built() {
+  throw std::runtime_error("this perifx was built without MPI: configure with -DPERIFX_MPI=ON (Debian: "
+                           "libopenmpi-dev openmpi-bin) to run under mpirun");
+}
+}  // namespace
+
+bool built_with_mpi() { return false; }
+MpiSession::MpiSession(int&, char**&) {}
+MpiSession::~MpiSession() = default;
+void MpiSession::abort(int exit_code) const { std::exit(exit_code); }
+
+struct Runtime::Impl {};
+Runtime::Runtime(const WorldState&, int) { not_built(); }
+Runtime::~Runtime() = default;
+int Runtime::rank() const { return 0; }
+int Runtime::ranks() const { return 1; }
+StepReport Runtime::step(bool) { not_built(); }
+void Runtime::gather(WorldState&) { not_built(); }
+bool Runtime::broadcast(bool) { not_built(); }
+std::size_t Runtime::local_particles() const { return 0; }
+std::size_t Runtime::ghosts() const { return 0; }
+}  // namespace perifx::distributed

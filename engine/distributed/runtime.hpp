@@ -1,0 +1,83 @@
+// The distributed runtime (issue 17): a world split over the ranks of an MPI job, each rank stepping
+// its local world (local_world.hpp) and exchanging halos with its neighbours. Built with PERIFX_MPI
+// (engine/distributed/mpi/runtime_mpi.cpp, Open MPI); without it (nompi/runtime_none.cpp) MpiSession
+// never starts MPI and make_runtime throws.
+//
+// Bit-identical to one process: owned particles compute from the same values in the same order
+// (local_world.hpp), the halo copies values bit for bit, and the only reductions (health, first break)
+// are a minimum and a logical or, whose result does not depend on the order.
+//
+// Output: gather() copies every rank's owned particle and bond data into rank 0's full world, in
+// particle order, so rank 0 writes the same files as one process.
+#pragma once
+#include <algorithm>
+#include <cstdint>
+#include <cstdlib>
+#include <memory>
+
+#include "components/world_state.hpp"
+
+namespace perifx::distributed {
+
+// MPI for the life of a program: started only when the process was launched by mpirun/mpiexec
+// (Open MPI's OMPI_COMM_WORLD_SIZE, or PMI_SIZE / PMIX_RANK, in the environment) and perifx was built
+// with PERIFX_MPI; otherwise a single process (rank 0 of 1).
+class MpiSession {
+ public:
+  MpiSession(int& argc, char**& argv);
+  ~MpiSession();  // MPI_Finalize when started
+  MpiSession(const MpiSession&) = delete;
+  MpiSession& operator=(const MpiSession&) = delete;
+  bool active() const { return active_; }
+  int rank() const { return rank_; }
+  int ranks() const { return ranks_; }
+  [[noreturn]] void abort(int exit_code) const;  // MPI_Abort (stops every rank)
+
+ private:
+  bool active_ = false;
+  int rank_ = 0, ranks_ = 1;
+};
+
+bool built_with_mpi();
+
+// The rank count mpirun/mpiexec launched this process among (Open MPI's OMPI_COMM_WORLD_SIZE, or
+// PMI_SIZE), 1 without a launcher.
+inline int launcher_ranks() {
+  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"})
+    if (const char* v = std::getenv(name)) return std::max(1, std::atoi(v));
+  return 1;
+}
+
+struct StepReport {
+  std::uint64_t unstable_particle = ParticleState::kAllStable;  // lowest global index over all ranks
+  bool any_broken = false;  // some owned particle on some rank has a broken bond (when asked)
+};
+
+class Runtime {
+ public:
+  // Splits `full` over the ranks of MPI_COMM_WORLD (decomposition.hpp) and builds this rank's local
+  // world and its step graph on `threads` threads. Collective. Throws std::invalid_argument for a
+  // world the runtime cannot split yet (contact, projectiles, FEM) and std::runtime_error without MPI.
+  Runtime(const WorldState& full, int threads);
+  ~Runtime();
+  Runtime(const Runtime&) = delete;
+  Runtime& operator=(const Runtime&) = delete;
+
+  int rank() const;
+  int ranks() const;
+  // One step of the local world with its halos, then the clock. Collective.
+  StepReport step(bool check_broken);
+  // Rank 0's `full` receives every rank's owned particle and bond state (other ranks pass theirs,
+  // which is left as it is). Collective.
+  void gather(WorldState& full);
+  // Rank 0's value of `flag` on every rank. Collective.
+  bool broadcast(bool flag);
+  std::size_t local_particles() const;  // owned + ghosts
+  std::size_t ghosts() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace perifx::distributed

@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# Distributed runs are bit-identical to one process (issue 17): runs mpi_tear.json (plasticity, fracture
+# with damage-dependent limits, an anchor, a velocity condition, gravity and a surface traction) in one
+# process, then under mpirun at 1, 2, 3 and 4 ranks of 1 thread and at 2 ranks of 2 threads, and
+# compares every frame file (particles.NNNN.vtu and .ply, particles.pvd) byte for byte. It first checks
+# that the reference run yields and breaks bonds, so the comparison covers both. --bind-to none: Open
+# MPI otherwise pins each rank to one core, and oneTBB would then run 2 threads on it as 1.
+#   usage: mpi_identity.sh PERIFX MPIRUN WORKDIR
+set -euo pipefail
+perifx=$1 mpirun=$2 work=$3
+here=$(cd "$(dirname "$0")" && pwd)
+scene=$here/mpi_tear.json
+rm -rf "$work"
+mkdir -p "$work"
+
+"$perifx" run "$scene" --threads 1 --quiet --out "$work/one_process"
+
+# The reference must exercise plasticity and fracture: some bond broken, some plastic strain.
+python3 - "$work/one_process" <<'EOF'
+import json, struct, sys, pathlib
+run = pathlib.Path(sys.argv[1])
+summary = json.loads((run / "summary.json").read_text())
+broken = summary["bonds"] - summary["alive_bonds"]
+# plastic_strain of the last frame, from the VTU's appended raw data (UInt64 byte count, then Float64s).
+last = sorted(run.glob("particles.*.vtu"))[-1].read_bytes()
+head, data = last.split(b'<AppendedData encoding="raw">', 1)
+data = data[data.index(b"_") + 1:]
+tag = head[head.index(b'Name="plastic_strain"'):]
+offset = int(tag[tag.index(b'offset="') + 8:].split(b'"')[0])
+size = struct.unpack_from("<Q", data, offset)[0]
+plastic = max(struct.unpack_from("<%dd" % (size // 8), data, offset + 8))
+print(f"mpi_identity: one process: {summary['particles']} particles, {broken} of {summary['bonds']} bonds broken, "
+      f"first break at {summary['first_break_time']} s, largest plastic strain {plastic:.3g}")
+if broken == 0 or not plastic > 0:
+    sys.exit("mpi_identity: the reference run must break bonds and yield; the scene no longer tests that")
+EOF
+
+fail=0
+for spec in 1x1 2x1 3x1 4x1 2x2; do
+  ranks=${spec%x*} threads=${spec#*x}
+  out=$work/ranks${ranks}_threads${threads}
+  "$mpirun" --allow-run-as-root --oversubscribe --bind-to none -np "$ranks" "$perifx" run "$scene" --threads "$threads" --quiet --out "$out"
+  count=0
+  for f in "$work"/one_process/particles.*; do
+    name=$(basename "$f")
+    if ! cmp -s "$f" "$out/$name"; then
+      echo "mpi_identity: $ranks ranks x $threads threads: $name differs from one process"
+      fail=1
+    fi
+    count=$((count + 1))
+  done
+  echo "mpi_identity: $ranks ranks x $threads threads: $count frame files compared"
+done
+if ((fail)); then exit 1; fi
+echo "mpi_identity: every frame file is byte-identical to one process"

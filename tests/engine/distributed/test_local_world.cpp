@@ -1,0 +1,191 @@
+// Local worlds of a distributed run (engine/distributed/local_world.hpp) without MPI: the ranks' local
+// worlds are stepped in one process, in lockstep, with the halo copied between them in memory, and
+// every owned particle and bond must hold the same bits as the one-process world. The MPI transport
+// itself is tested by mpi_identity.sh (PERIFX_MPI builds).
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+
+#include "distributed/local_world.hpp"
+#include "perifx/world.hpp"
+#include "perifx/scene.hpp"
+#include "systems/pipeline.hpp"
+
+using namespace perifx;
+
+namespace {
+
+const std::filesystem::path kTear = std::filesystem::path(PERIFX_SOURCE_DIR) / "tests/engine/distributed/mpi_tear.json";
+
+// The same bytes in a's owned slice [begin, begin + count) as in b's [first, first + count).
+template <class V>
+bool same_bits(const V& local, std::size_t begin, const V& full, std::size_t first, std::size_t count) {
+  return std::memcmp(local.data() + begin, full.data() + first, count * sizeof(local[0])) == 0;
+}
+
+struct Rank {
+  distributed::LocalLayout layout;
+  std::unique_ptr<WorldState> world;
+  systems::PipelineOptions::Halo halo;
+  std::vector<SystemDecl> systems;
+};
+
+// Copies, for every ghost of rank r, what `copy(to_world, to_index, from_world, from_index)` moves.
+template <class Copy>
+void exchange(std::vector<Rank>& ranks, std::size_t r, Copy&& copy) {
+  Rank& me = ranks[r];
+  for (const auto& in : me.layout.receives) {
+    const Rank& owner = ranks[static_cast<std::size_t>(in.rank)];
+    const distributed::HaloLink* out = nullptr;
+    for (const auto& link : owner.layout.sends)
+      if (link.rank == static_cast<int>(r)) out = &link;
+    REQUIRE(out != nullptr);
+    REQUIRE(out->local.size() == in.local.size());
+    for (std::size_t m = 0; m < in.local.size(); ++m) copy(*me.world, in.local[m], *owner.world, out->local[m]);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("local worlds: stepped in lockstep with copied halos, every owned particle and bond matches one process") {
+  const scene::Scene sc = scene::load_scene_file(kTear);
+  World one(sc);
+  const World split_source(sc);
+  const WorldState& full = split_source.state();
+  const std::uint64_t steps = 160;  // the first bond breaks at step 44 (first_break_time 2.2 ms)
+  one.step(steps);
+  REQUIRE(one.alive_bond_count() < one.bond_count());
+
+  // 3 and 4 ranks; then 3 ranks without the dilatation halo, which must differ (the test can fail).
+  for (int count : {3, 4, -3}) {
+    const bool control = count < 0;
+    count = control ? -count : count;
+    CAPTURE(count);
+    CAPTURE(control);
+    const auto domains = distributed::split_by_work(full, count);
+    std::vector<Rank> ranks(static_cast<std::size_t>(count));
+    for (std::size_t r = 0; r < ranks.size(); ++r) {
+      Rank& rank = ranks[r];
+      rank.layout = distributed::make_layout(full, domains, static_cast<int>(r));
+      rank.world = distributed::make_local_world(full, rank.layout);
+      CHECK(rank.layout.ghost_count() > 0);
+      rank.halo.motion = [&ranks, r] {
+        exchange(ranks, r, [](WorldState& to, std::uint32_t i, const WorldState& from, std::uint32_t j) {
+          to.particles.position[i] = from.particles.position[j];
+          to.particles.velocity[i] = from.particles.velocity[j];
+        });
+      };
+      rank.halo.dilatation = [&ranks, r, control] {
+        if (control) return;
+        exchange(ranks, r, [](WorldState& to, std::uint32_t i, const WorldState& from, std::uint32_t j) {
+          to.state.dilatation[i] = from.state.dilatation[j];
+          to.state.dilatation_coupling[i] = from.state.dilatation_coupling[j];
+        });
+      };
+      rank.halo.threshold = [&ranks, r] {
+        exchange(ranks, r, [](WorldState& to, std::uint32_t i, const WorldState& from, std::uint32_t j) {
+          to.state.break_extension[i] = from.state.break_extension[j];
+        });
+      };
+      systems::PipelineOptions options;
+      options.halo = &rank.halo;
+      options.embedded_mesh = false;
+      rank.systems = systems::step_pipeline(*rank.world, options);
+      REQUIRE(rank.systems.size() == ranks[0].systems.size());
+    }
+    // Every ghost receives from its owner's copy of the same particle.
+    std::size_t mismatched = 0, ghosts = 0;
+    for (std::size_t r = 0; r < ranks.size(); ++r) {
+      for (const auto& in : ranks[r].layout.receives) {
+        const auto& owner = ranks[static_cast<std::size_t>(in.rank)].layout;
+        for (const auto& out : owner.sends)
+          if (out.rank == static_cast<int>(r))
+            for (std::size_t m = 0; m < in.local.size(); ++m, ++ghosts)
+              mismatched += owner.global_of[out.local[m]] != ranks[r].layout.global_of[in.local[m]];
+      }
+    }
+    CHECK(mismatched == 0);
+    CHECK(ghosts == [&] {
+      std::size_t total = 0;
+      for (const auto& rank : ranks) total += rank.layout.ghost_count();
+      return total;
+    }());
+    // Lockstep: system s runs on every rank before system s + 1 runs on any, so a halo stage sees
+    // every owner's values of that stage.
+    for (std::uint64_t step = 0; step < steps; ++step) {
+      for (std::size_t s = 0; s < ranks[0].systems.size(); ++s)
+        for (auto& rank : ranks) rank.systems[s].run();
+      for (auto& rank : ranks) {
+        ++rank.world->clock.step;
+        rank.world->clock.time = static_cast<double>(rank.world->clock.step) * rank.world->clock.dt;
+      }
+    }
+    const WorldState& ref = one.state();
+    if (control) {
+      bool all_same = true;
+      for (const auto& rank : ranks) {
+        const auto& l = rank.layout;
+        all_same = all_same && same_bits(rank.world->particles.position, l.owned_begin, ref.particles.position,
+                                         l.domains[static_cast<std::size_t>(l.rank)].first, l.owned_count);
+      }
+      CHECK_FALSE(all_same);
+      continue;
+    }
+    for (const auto& rank : ranks) {
+      const auto& l = rank.layout;
+      const auto& d = l.domains[static_cast<std::size_t>(l.rank)];
+      CAPTURE(l.rank);
+      const WorldState& w = *rank.world;
+      CHECK(same_bits(w.particles.position, l.owned_begin, ref.particles.position, d.first, l.owned_count));
+      CHECK(same_bits(w.particles.velocity, l.owned_begin, ref.particles.velocity, d.first, l.owned_count));
+      CHECK(same_bits(w.particles.acceleration, l.owned_begin, ref.particles.acceleration, d.first, l.owned_count));
+      CHECK(same_bits(w.state.dilatation, l.owned_begin, ref.state.dilatation, d.first, l.owned_count));
+      CHECK(same_bits(w.state.damage, l.owned_begin, ref.state.damage, d.first, l.owned_count));
+      CHECK(same_bits(w.state.break_extension, l.owned_begin, ref.state.break_extension, d.first, l.owned_count));
+      const std::size_t bonds = w.bonds.count();
+      CHECK(same_bits(w.bonds.alive, 0, ref.bonds.alive, l.bond_begin, bonds));
+      CHECK(same_bits(w.bonds.plastic_extension, 0, ref.bonds.plastic_extension, l.bond_begin, bonds));
+      CHECK(same_bits(w.bonds.plastic_extension_mirror, 0, ref.bonds.plastic_extension_mirror, l.bond_begin, bonds));
+    }
+  }
+}
+
+TEST_CASE("local worlds: owned rows are the global rows, ghosts are exactly the far ends outside the range") {
+  const World source(scene::load_scene_file(kTear));
+  const WorldState& full = source.state();
+  const auto domains = distributed::split_by_work(full, 3);
+  for (int r = 0; r < 3; ++r) {
+    const auto layout = distributed::make_layout(full, domains, r);
+    const auto w = distributed::make_local_world(full, layout);
+    const auto& d = domains[static_cast<std::size_t>(r)];
+    REQUIRE(w->particles.count() == layout.global_of.size());
+    CHECK(std::is_sorted(layout.global_of.begin(), layout.global_of.end()));
+    std::vector<std::uint8_t> is_far_end(full.particles.count(), 0);
+    std::size_t wrong_owner = 0, wrong_row = 0, wrong_neighbor = 0, stray_ghosts = 0;
+    for (std::uint32_t l = 0; l < w->particles.count(); ++l) {
+      const std::uint32_t g = layout.global_of[l];
+      const bool owned = g >= d.first && g < d.last;
+      wrong_owner += owned != (l >= layout.owned_begin && l < layout.owned_begin + layout.owned_count);
+      const std::uint32_t row = w->bonds.offsets[l + 1] - w->bonds.offsets[l];
+      wrong_row += row != (owned ? full.bonds.offsets[g + 1] - full.bonds.offsets[g] : 0u);
+      for (std::uint32_t k = w->bonds.offsets[l]; k < w->bonds.offsets[l + 1]; ++k) {
+        const std::uint32_t far = layout.global_of[w->bonds.neighbor[k]];
+        wrong_neighbor += far != full.bonds.neighbor[full.bonds.offsets[g] + (k - w->bonds.offsets[l])];
+        is_far_end[far] = 1;
+      }
+    }
+    // Every ghost is the far end of some owned bond (no contact in this scene).
+    for (std::uint32_t l = 0; l < w->particles.count(); ++l)
+      if (l < layout.owned_begin || l >= layout.owned_begin + layout.owned_count) stray_ghosts += !is_far_end[layout.global_of[l]];
+    CHECK(wrong_owner == 0);
+    CHECK(wrong_row == 0);
+    CHECK(wrong_neighbor == 0);
+    CHECK(stray_ghosts == 0);
+    CHECK(layout.ghost_count() > 0);
+    // Boundary lists hold owned particles only.
+    for (std::uint32_t i : w->boundary.constrained)
+      CHECK((i >= layout.owned_begin && i < layout.owned_begin + layout.owned_count));
+  }
+}
