@@ -114,12 +114,12 @@ using PvdEntries = std::vector<std::pair<double, std::string>>;
 // A distributed run on a rank other than 0: the same steps, gathers and stop decisions as rank 0's
 // run_world makes, in the same order (each is collective), and no files.
 template <class StepOfFrame>
-RunSummary follow_run(World& world, const RunOptions& options, std::uint64_t frames, StepOfFrame step_of_frame) {
+RunSummary follow_run(World& world, std::uint64_t frames, std::uint64_t start_frame, std::uint64_t first_step,
+                      StepOfFrame step_of_frame) {
   RunSummary summary;
-  summary.output_directory = options.output_directory ? *options.output_directory : world.scene().output.directory;
-  const std::uint64_t first_step = world.step_count();
-  world.gather();  // frame 0
-  for (std::uint64_t k = 1; k <= frames; ++k) {
+  summary.first_frame = summary.last_frame = start_frame;
+  if (start_frame == 0) world.gather();  // frame 0
+  for (std::uint64_t k = start_frame + 1; k <= frames; ++k) {
     const std::uint64_t target = first_step + step_of_frame(k);
     while (world.step_count() < target) world.step();
     world.gather();
@@ -219,8 +219,6 @@ RunSummary run_world(World& world, const RunOptions& options) {
       throw std::invalid_argument("output formats obj/surface_ply/surface_vtp/tets_vtu/cache/gltf/dust are not "
                                   "written by distributed runs yet (the split mesh is not distributed): run this "
                                   "scene in one process, or ask for vtu/ply particles only");
-    if (options.existing == ExistingRun::resume)
-      throw std::invalid_argument("--resume is not available in distributed runs yet (they write no checkpoint)");
     mesh_output = animation = false;
   }
   const bool has_mesh = world.has_embedded_mesh() && !distributed;
@@ -229,8 +227,9 @@ RunSummary run_world(World& world, const RunOptions& options) {
   if (mesh_output && !has_mesh)
     throw std::invalid_argument("output formats obj/surface_ply/surface_vtp/tets_vtu need the embedded tet mesh "
                                 "(solver 'peridynamics')");
-  if (distributed && world.rank() != 0) return follow_run(world, options, frames, step_of_frame);
-  io::remove_stale_temporaries(summary.output_directory);  // *.tmp-<pid> of killed runs
+  // Rank 0 of a distributed run (or the one process) writes the files; every rank reads a checkpoint.
+  const bool lead = !distributed || world.rank() == 0;
+  if (lead) io::remove_stale_temporaries(summary.output_directory);  // *.tmp-<pid> of killed runs
   if (animation && !has_mesh) {
     if (!sc.output.surfaces_by_default)
       throw std::invalid_argument("output formats cache/gltf need the embedded tet mesh (solver 'peridynamics')");
@@ -249,6 +248,12 @@ RunSummary run_world(World& world, const RunOptions& options) {
   const auto existing = run_files(dir);
   if (options.existing == ExistingRun::resume && fs::exists(checkpoint)) {
     const auto note = nlohmann::json::parse(world.load_checkpoint(checkpoint));
+    // A distributed run's checkpoint holds its particles and bonds but not the split mesh it never
+    // stepped: continuing it in one process is fine unless the run writes that mesh.
+    if (!distributed && note.value("distributed", false) && (mesh_output || animation))
+      throw std::invalid_argument("cannot resume: the checkpoint in '" + dir.string() +
+                                  "' was written by a distributed run, which does not step the split mesh this "
+                                  "scene's surface outputs need; resume it under mpirun, or --overwrite");
     start_frame = note.at("frame").get<std::uint64_t>();
     if (start_frame > frames)
       throw std::invalid_argument("cannot resume: the checkpoint in '" + dir.string() + "' is at frame " +
@@ -275,7 +280,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
       if (frame_number(f.filename().string()) > static_cast<long long>(frames) ||
           f.filename().string().find(".tmp-") != std::string::npos)
         later.push_back(f);
-    remove_files(later);
+    if (lead) remove_files(later);
   } else if (!existing.empty()) {
     if (options.existing == ExistingRun::refuse) {
       std::string names;
@@ -284,8 +289,9 @@ RunSummary run_world(World& world, const RunOptions& options) {
       throw io::IoError("output directory '" + dir.string() + "' holds another run's output (" + names +
                         "); use --overwrite to replace it or --resume to continue it");
     }
-    remove_files(existing);  // overwrite, or resume with no checkpoint: start over
+    if (lead) remove_files(existing);  // overwrite, or resume with no checkpoint: start over
   }
+  if (!lead) return follow_run(world, frames, start_frame, first_step, step_of_frame);
   summary.first_frame = start_frame;
   if (sc.output.obj) io::write_surface_mtl(summary.output_directory / "surface.mtl");
 
@@ -375,7 +381,8 @@ RunSummary run_world(World& world, const RunOptions& options) {
                            {"particles_pvd", pvd.entries()},
                            {"surface_pvd", surface_pvd.entries()},
                            {"tets_pvd", tets_pvd.entries()},
-                           {"projectile_csv", projectile_csv}};
+                           {"projectile_csv", projectile_csv},
+                           {"distributed", distributed}};
     if (animation) io::write_animation_history(dir / "animation.bin", history);
     world.save_checkpoint(checkpoint, note.dump());
     output_wall += std::chrono::duration<double>(clock::now() - t0).count();
@@ -409,7 +416,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
     summary.last_frame = k;
     // Rank 0 decides for every rank (follow_run makes the same call).
     const bool stop = world.broadcast(options.stop_requested && options.stop_requested() && k < frames);
-    if (!distributed && (stop || (every > 0 && (k % every == 0 || k == frames)))) write_checkpoint(k);
+    if (stop || (every > 0 && (k % every == 0 || k == frames))) write_checkpoint(k);
     if (options.on_frame) {
       RunProgress pr;
       pr.frame = k;

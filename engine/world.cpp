@@ -34,6 +34,7 @@ struct World::Impl {
   std::optional<double> stable_bound;  // World::stable_time_step_bound, once computed
   std::vector<setup::PhaseTime> setup_times;  // construction phases, then the stable-step estimate
   std::unique_ptr<distributed::Runtime> runtime;  // distribute(): this rank's local world and halos
+  std::size_t particles = 0, bonds = 0;  // the whole world's counts (other ranks free its arrays)
 
   ~Impl() { scheduler.reset(); }  // the graph's nodes reference the state; tear them down first
 };
@@ -137,8 +138,10 @@ void World::step(std::uint64_t count) {
 double World::time() const { return impl_->state->clock.time; }
 double World::dt() const { return impl_->state->clock.dt; }
 std::uint64_t World::step_count() const { return impl_->state->clock.step; }
-std::size_t World::particle_count() const { return impl_->state->particles.count(); }
-std::size_t World::bond_count() const { return impl_->state->bonds.count(); }
+std::size_t World::particle_count() const {
+  return impl_->runtime ? impl_->particles : impl_->state->particles.count();
+}
+std::size_t World::bond_count() const { return impl_->runtime ? impl_->bonds : impl_->state->bonds.count(); }
 std::size_t World::alive_bond_count() const {
   const auto& alive = impl_->state->bonds.alive;
   std::size_t count = 0;
@@ -198,6 +201,8 @@ std::vector<DomainView> World::decompose(int ranks) const {
 
 void World::distribute() {
   if (impl_->runtime) throw std::logic_error("World::distribute: already distributed");
+  impl_->particles = impl_->state->particles.count();
+  impl_->bonds = impl_->state->bonds.count();
   impl_->runtime = std::make_unique<distributed::Runtime>(*impl_->state, impl_->scheduler->threads());
   if (impl_->runtime->rank() != 0) {
     // Rank 0 writes the output from its full world; the others step their local worlds only.
@@ -392,6 +397,12 @@ std::string World::load_checkpoint(const std::filesystem::path& file) {
   io::read_checkpoint(file, state_mutable());
   impl_->stable_dt = 0.0;
   impl_->stable_bound.reset();
+  if (impl_->runtime) {
+    // Every rank read the whole world (the file restores every array, also those other ranks had
+    // freed): split it again, from the checkpoint's state.
+    impl_->runtime.reset();
+    distribute();
+  }
   return h.note;
 }
 

@@ -183,6 +183,12 @@ inline double break_limit(double break_extension, double r, double inverse_lengt
 }
 
 // Break extension of Eq 19 for a particle: (1 + α φ) s_c δ, ∞ for an unbreakable material.
+// P_i = (a4_i − b4_i β_i) θ_i, the dilatational factor both ends of a bond need (dilatation.cpp). One
+// expression, so a rank that receives θ over the network computes the same bits (engine/distributed).
+inline double dilatation_coupling(const ParticleModel& md, std::size_t i, double theta) {
+  return (md.a4[i] - md.b4[i] * md.beta[i]) * theta;
+}
+
 inline double break_extension(double critical_stretch, double damage_alpha, double damage, double horizon) {
   return std::isfinite(critical_stretch) ? (1.0 + damage_alpha * damage) * critical_stretch * horizon : kInfinity;
 }

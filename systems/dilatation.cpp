@@ -39,7 +39,7 @@ void compute_dilatation(const WorldState& w, const std::vector<Vec3>& y_vec, std
       for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
       const double th = md.dilatation_scale[i] * md.horizon[i] * sum_lanes(sum);
       theta[i] = th;
-      coupling[i] = (md.a4[i] - md.b4[i] * md.beta[i]) * th;
+      coupling[i] = dilatation_coupling(md, i, th);
     });
   }, w.any_anisotropic);
 }

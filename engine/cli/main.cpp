@@ -445,9 +445,7 @@ int cmd_run(const Args& a) {
   }
   if (a.profile) std::cout << "profile (" << s.threads << " threads):\n" << perifx::profile_table(s) << std::flush;
   if (s.interrupted) {
-    if (!a.quiet)
-      std::cerr << "perifx: interrupted after frame " << s.last_frame
-                << (world.distributed() ? " (distributed runs cannot resume yet)\n" : "; continue with --resume\n");
+    if (!a.quiet) std::cerr << "perifx: interrupted after frame " << s.last_frame << "; continue with --resume\n";
     return kInterrupted;
   }
   if (a.render) {

@@ -11,8 +11,9 @@
 // its flags carry kPrescribed (integration leaves it alone, colliders skip it) and the halo overwrites
 // what the owned particles read of it, each step, before they read it:
 //   motion     after the drift and colliders: position, velocity            (6 doubles)
-//   dilatation after the dilatation pass:      θ and P = (a4 − b4β)θ         (2 doubles)
+//   dilatation after the dilatation pass:      θ; the receiver recomputes P = (a4 − b4β)θ (1 double)
 //   threshold  after the fracture threshold:   break extension               (1 double)
+// 8 doubles, 64 bytes, per ghost and step (decomposition.hpp's kGhostBytesPerStep).
 // Everything else an owned particle reads of a neighbour (reference position, volume, model
 // constants) is copied once here. A bond across two ranks is held by both owners; each decides its
 // plasticity and break from the same values, as the two ends of a bond do in one process

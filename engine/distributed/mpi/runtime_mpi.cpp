@@ -13,6 +13,7 @@
 #include "distributed/local_world.hpp"
 #include "distributed/runtime.hpp"
 #include "scheduler.hpp"
+#include "systems/bond_rules.hpp"
 #include "systems/pipeline.hpp"
 
 namespace perifx::distributed {
@@ -152,9 +153,13 @@ Runtime::Runtime(const WorldState& full, int threads) : impl_(std::make_unique<I
   m.halo.dilatation = [&m, &w] {
     auto& theta = w.state.dilatation;
     auto& coupling = w.state.dilatation_coupling;
+    // θ travels; P follows from it and constants the ghost already has, with the same expression.
     m.exchange(
-        2, kTagDilatation, [&](std::uint32_t i, double* out) { out[0] = theta[i], out[1] = coupling[i]; },
-        [&](std::uint32_t i, const double* in) { theta[i] = in[0], coupling[i] = in[1]; });
+        1, kTagDilatation, [&](std::uint32_t i, double* out) { out[0] = theta[i]; },
+        [&](std::uint32_t i, const double* in) {
+          theta[i] = in[0];
+          coupling[i] = systems::dilatation_coupling(w.model, i, in[0]);
+        });
   };
   m.halo.threshold = [&m, &w] {
     auto& limit = w.state.break_extension;

@@ -3,7 +3,8 @@
 # with damage-dependent limits, an anchor, a velocity condition, gravity and a surface traction) in one
 # process, then under mpirun at 1, 2, 3 and 4 ranks of 1 thread and at 2 ranks of 2 threads, and
 # compares every frame file (particles.NNNN.vtu and .ply, particles.pvd) byte for byte. It first checks
-# that the reference run yields and breaks bonds, so the comparison covers both. --bind-to none: Open
+# that the reference run yields and breaks bonds, so the comparison covers both. Then a run of 2 ranks
+# stopped at frame 7 is resumed from its checkpoint by 3 ranks, and by one process: the same bytes. --bind-to none: Open
 # MPI otherwise pins each rank to one core, and oneTBB would then run 2 threads on it as 1.
 #   usage: mpi_identity.sh PERIFX MPIRUN WORKDIR
 set -euo pipefail
@@ -50,6 +51,33 @@ for spec in 1x1 2x1 3x1 4x1 2x2; do
     count=$((count + 1))
   done
   echo "mpi_identity: $ranks ranks x $threads threads: $count frame files compared"
+done
+# Resume: 2 ranks stop at frame 7 (checkpoint), then 3 ranks, and one process, continue to the end.
+for resumer in 3 1; do
+  out=$work/resumed_by_$resumer
+  "$mpirun" --allow-run-as-root --oversubscribe --bind-to none -np 2 "$perifx" run "$scene" --threads 1 --quiet \
+    --frames 7 --out "$out"
+  if ((resumer > 1)); then
+    "$mpirun" --allow-run-as-root --oversubscribe --bind-to none -np "$resumer" "$perifx" run "$scene" --threads 1 \
+      --quiet --resume --out "$out"
+  else
+    "$perifx" run "$scene" --threads 1 --quiet --resume --out "$out"
+  fi
+  first=$(python3 -c "import json, sys; print(json.load(open(sys.argv[1]))['first_frame'])" "$out/summary.json")
+  if [[ $first != 7 ]]; then
+    echo "mpi_identity: resumed by $resumer rank(s): expected to continue after frame 7, began after $first"
+    fail=1
+  fi
+  count=0
+  for f in "$work"/one_process/particles.*; do
+    name=$(basename "$f")
+    if ! cmp -s "$f" "$out/$name"; then
+      echo "mpi_identity: 2 ranks to frame 7, resumed by $resumer rank(s): $name differs from one process"
+      fail=1
+    fi
+    count=$((count + 1))
+  done
+  echo "mpi_identity: 2 ranks to frame 7, resumed by $resumer rank(s): $count frame files compared"
 done
 if ((fail)); then exit 1; fi
 echo "mpi_identity: every frame file is byte-identical to one process"

@@ -11,6 +11,7 @@
 #include "distributed/local_world.hpp"
 #include "perifx/world.hpp"
 #include "perifx/scene.hpp"
+#include "systems/bond_rules.hpp"
 #include "systems/pipeline.hpp"
 
 using namespace perifx;
@@ -81,7 +82,7 @@ TEST_CASE("local worlds: stepped in lockstep with copied halos, every owned part
         if (control) return;
         exchange(ranks, r, [](WorldState& to, std::uint32_t i, const WorldState& from, std::uint32_t j) {
           to.state.dilatation[i] = from.state.dilatation[j];
-          to.state.dilatation_coupling[i] = from.state.dilatation_coupling[j];
+          to.state.dilatation_coupling[i] = systems::dilatation_coupling(to.model, i, from.state.dilatation[j]);
         });
       };
       rank.halo.threshold = [&ranks, r] {
