@@ -37,20 +37,25 @@ if broken == 0 or not plastic > 0:
 EOF
 
 fail=0
-for spec in 1x1 2x1 3x1 4x1 2x2; do
-  ranks=${spec%x*} threads=${spec#*x}
-  out=$work/ranks${ranks}_threads${threads}
-  "$mpirun" --allow-run-as-root --oversubscribe --bind-to none -np "$ranks" "$perifx" run "$scene" --threads "$threads" --quiet --out "$out"
-  count=0
+# compare LABEL DIR: every frame file of the one-process run against DIR's, byte for byte.
+compare() {
+  local count=0 f name
   for f in "$work"/one_process/particles.*; do
     name=$(basename "$f")
-    if ! cmp -s "$f" "$out/$name"; then
-      echo "mpi_identity: $ranks ranks x $threads threads: $name differs from one process"
+    if ! cmp -s "$f" "$2/$name"; then
+      echo "mpi_identity: $1: $name differs from one process"
       fail=1
     fi
     count=$((count + 1))
   done
-  echo "mpi_identity: $ranks ranks x $threads threads: $count frame files compared"
+  echo "mpi_identity: $1: $count frame files compared"
+}
+
+for spec in 1x1 2x1 3x1 4x1 2x2; do
+  ranks=${spec%x*} threads=${spec#*x}
+  out=$work/ranks${ranks}_threads${threads}
+  "$mpirun" --allow-run-as-root --oversubscribe --bind-to none -np "$ranks" "$perifx" run "$scene" --threads "$threads" --quiet --out "$out"
+  compare "$ranks ranks x $threads threads" "$out"
 done
 # Resume: 2 ranks stop at frame 7 (checkpoint), then 3 ranks, and one process, continue to the end.
 for resumer in 3 1; do
@@ -68,16 +73,7 @@ for resumer in 3 1; do
     echo "mpi_identity: resumed by $resumer rank(s): expected to continue after frame 7, began after $first"
     fail=1
   fi
-  count=0
-  for f in "$work"/one_process/particles.*; do
-    name=$(basename "$f")
-    if ! cmp -s "$f" "$out/$name"; then
-      echo "mpi_identity: 2 ranks to frame 7, resumed by $resumer rank(s): $name differs from one process"
-      fail=1
-    fi
-    count=$((count + 1))
-  done
-  echo "mpi_identity: 2 ranks to frame 7, resumed by $resumer rank(s): $count frame files compared"
+  compare "2 ranks to frame 7, resumed by $resumer rank(s)" "$out"
 done
 if ((fail)); then exit 1; fi
 echo "mpi_identity: every frame file is byte-identical to one process"
