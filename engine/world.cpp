@@ -54,30 +54,30 @@ World& World::operator=(World&&) noexcept = default;
 World::~World() = default;
 
 void World::step() {
+  WorldState& w = *impl_->state;
+  auto& c = w.clock;
+  const bool check_broken = w.any_fracture && c.first_break_step == Clock::kNoBreak;
+  // A distributed world steps its local part; its report carries the whole job's health and breaks.
+  distributed::StepReport report;
   if (impl_->runtime) {
-    WorldState& w = *impl_->state;
-    const bool check_broken = w.any_fracture && w.clock.first_break_step == Clock::kNoBreak;
-    const distributed::StepReport report = impl_->runtime->step(check_broken);
-    auto& c = w.clock;
-    ++c.step;
-    c.time = static_cast<double>(c.step) * c.dt;
-    if (report.unstable_particle != ParticleState::kAllStable) {
+    report = impl_->runtime->step(check_broken);
+  } else {
+    impl_->scheduler->run_step();
+    report.unstable_particle = w.state.unstable_particle;
+  }
+  ++c.step;
+  c.time = static_cast<double>(c.step) * c.dt;  // no drift from summing dt
+  if (report.unstable_particle != ParticleState::kAllStable) {
+    if (impl_->runtime) {
       gather();  // the message names the particle's state, which rank 0 then holds
       if (rank() != 0)
         throw InstabilityError("unstable simulation at step " + std::to_string(c.step) + " (rank 0 reports it)",
                                c.step, report.unstable_particle);
       w.state.unstable_particle = report.unstable_particle;
-      throw_instability();
     }
-    if (check_broken && report.any_broken) c.first_break_step = c.step;
-    return;
+    throw_instability();
   }
-  impl_->scheduler->run_step();
-  auto& c = impl_->state->clock;
-  ++c.step;
-  c.time = static_cast<double>(c.step) * c.dt;  // no drift from summing dt
-  if (impl_->state->state.unstable_particle != ParticleState::kAllStable) throw_instability();
-  if (c.first_break_step == Clock::kNoBreak && impl_->state->any_fracture && any_bond_broken()) c.first_break_step = c.step;
+  if (check_broken && (impl_->runtime ? report.any_broken : any_bond_broken())) c.first_break_step = c.step;
 }
 
 // One pass over the per-particle broken-bond counts (N_i − n_i, kept by the bond pass): run after
@@ -203,7 +203,11 @@ void World::distribute() {
   if (impl_->runtime) throw std::logic_error("World::distribute: already distributed");
   impl_->particles = impl_->state->particles.count();
   impl_->bonds = impl_->state->bonds.count();
-  impl_->runtime = std::make_unique<distributed::Runtime>(*impl_->state, impl_->scheduler->threads());
+  try {
+    impl_->runtime = std::make_unique<distributed::Runtime>(*impl_->state, impl_->scheduler->threads());
+  } catch (const std::invalid_argument& e) {  // what the runtime cannot split yet, by JSON pointer
+    throw std::invalid_argument(impl_->scene.source.string() + ": " + e.what());
+  }
   if (impl_->runtime->rank() != 0) {
     // Rank 0 writes the output from its full world; the others step their local worlds only.
     for_each_array(*impl_->state, [](ArrayKind, const char*, auto& array) {

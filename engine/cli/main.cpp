@@ -19,6 +19,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -576,7 +577,13 @@ int main(int argc, char** argv) {
     if (mpi.rank() != 0) std::cout.rdbuf(muted.rdbuf()), std::cerr.rdbuf(muted.rdbuf());
     const int code = cli_main(argc, argv, mpi);
     std::cout.rdbuf(out), std::cerr.rdbuf(err);
-    if (code != kOk && code != kInterrupted && mpi.ranks() > 1) mpi.abort(code);
+    if (code != kOk && code != kInterrupted && mpi.ranks() > 1) {
+      // mpirun forwards a rank's output through a pipe that MPI_Abort can cut before it is read: give
+      // the error line half a second to reach the terminal (it was lost otherwise, now and then).
+      std::cout.flush(), std::cerr.flush();
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+      mpi.abort(code);
+    }
     return code;
   } catch (const std::exception& e) {
     std::cerr << "perifx: internal error: " << e.what() << "\n";

@@ -48,10 +48,26 @@ std::vector<Domain> split_by_work(const WorldState& w, int ranks) {
   return domains;
 }
 
+std::vector<std::vector<std::uint32_t>> bond_ghosts(const WorldState& w, const std::vector<Domain>& domains) {
+  const auto& b = w.bonds;
+  std::vector<std::vector<std::uint32_t>> ghosts(domains.size());
+  tbb::parallel_for(std::size_t{0}, domains.size(), [&](std::size_t r) {
+    const Domain& d = domains[r];
+    auto& list = ghosts[r];
+    for (std::uint32_t i = d.first; i < d.last; ++i)
+      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
+        const std::uint32_t j = b.neighbor[k];
+        if (j < d.first || j >= d.last) list.push_back(j);
+      }
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+  });
+  return ghosts;
+}
+
 void find_ghosts(const WorldState& w, std::vector<Domain>& domains) {
   const std::size_t n = w.particles.count();
   const auto& y = w.particles.position;
-  const auto& b = w.bonds;
   const double reach = w.contact.enabled ? w.contact.largest_distance + w.contact.pairs.skin : 0.0;
   SpatialGrid grid;
   if (reach > 0.0) {
@@ -62,15 +78,12 @@ void find_ghosts(const WorldState& w, std::vector<Domain>& domains) {
   std::vector<std::uint32_t> owner(n);
   for (std::size_t r = 0; r < domains.size(); ++r)
     std::fill(owner.begin() + domains[r].first, owner.begin() + domains[r].last, static_cast<std::uint32_t>(r));
+  const auto far_ends = bond_ghosts(w, domains);
   tbb::parallel_for(std::size_t{0}, domains.size(), [&](std::size_t r) {
     Domain& d = domains[r];
     // 1 = bond ghost, 2 = contact ghost only.
     std::vector<std::uint8_t> kind(n, 0);
-    for (std::uint32_t i = d.first; i < d.last; ++i)
-      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
-        const std::uint32_t j = b.neighbor[k];
-        if (j < d.first || j >= d.last) kind[j] = 1;
-      }
+    for (std::uint32_t j : far_ends[r]) kind[j] = 1;
     if (reach > 0.0) {
       const double reach2 = reach * reach;
       for (std::uint32_t i = d.first; i < d.last; ++i)

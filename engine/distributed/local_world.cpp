@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <string>
 #include <type_traits>
 
 namespace perifx::distributed {
@@ -32,24 +33,19 @@ std::vector<std::uint32_t> owned_part(const std::vector<std::uint32_t>& list, co
   return out;
 }
 
-}  // namespace
-
-std::vector<std::vector<std::uint32_t>> bond_ghosts(const WorldState& full, const std::vector<Domain>& domains) {
-  const auto& b = full.bonds;
-  std::vector<std::vector<std::uint32_t>> ghosts(domains.size());
-  for (std::size_t r = 0; r < domains.size(); ++r) {
-    const Domain& d = domains[r];
-    auto& list = ghosts[r];
-    for (std::uint32_t i = d.first; i < d.last; ++i)
-      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
-        const std::uint32_t j = b.neighbor[k];
-        if (j < d.first || j >= d.last) list.push_back(j);
-      }
-    std::sort(list.begin(), list.end());
-    list.erase(std::unique(list.begin(), list.end()), list.end());
+// Local CSR offsets of rows kept per global particle (bonds, surface patches): owned rows keep their
+// lengths, in order, and ghost rows are empty.
+std::vector<std::uint32_t> owned_row_offsets(const std::vector<std::uint32_t>& global_offsets, const LocalLayout& l) {
+  std::vector<std::uint32_t> offsets(l.global_of.size() + 1, 0);
+  for (std::size_t q = 0; q < l.global_of.size(); ++q) {
+    const bool owned = q >= l.owned_begin && q < l.owned_begin + l.owned_count;
+    const std::uint32_t g = l.global_of[q];
+    offsets[q + 1] = offsets[q] + (owned ? global_offsets[g + 1] - global_offsets[g] : 0);
   }
-  return ghosts;
+  return offsets;
 }
+
+}  // namespace
 
 LocalLayout make_layout(const WorldState& full, const std::vector<Domain>& domains, int rank) {
   const auto ghosts = bond_ghosts(full, domains);
@@ -84,9 +80,13 @@ LocalLayout make_layout(const WorldState& full, const std::vector<Domain>& domai
 
 std::unique_ptr<WorldState> make_local_world(const WorldState& full, const LocalLayout& layout) {
   if (full.contact.enabled)
-    throw std::invalid_argument("particle contact is not distributed yet: run this scene in one process");
+    throw std::invalid_argument("/contact/enabled: particle contact is not distributed yet (got true; it is on by "
+                                "default when a material can break or there are two bodies): set \"contact\": "
+                                "{\"enabled\": false}, or run this scene in one process");
   if (!full.projectiles.bodies.empty())
-    throw std::invalid_argument("projectiles are not distributed yet: run this scene in one process");
+    throw std::invalid_argument("/projectiles: projectiles are not distributed yet (got " +
+                                std::to_string(full.projectiles.bodies.size()) +
+                                "): run this scene in one process");
   const Domain& d = layout.domains[static_cast<std::size_t>(layout.rank)];
   const auto& order = layout.global_of;
   const std::size_t n_full = full.particles.count(), n = order.size();
@@ -124,12 +124,7 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, const Local
   const Bonds& fb = full.bonds;
   Bonds& b = w->bonds;
   const std::uint32_t bond_first = fb.offsets[d.first], bond_last = fb.offsets[d.last];
-  b.offsets.assign(n + 1, 0);
-  for (std::size_t l = 0; l < n; ++l) {
-    const bool owned = l >= shift && l < shift + layout.owned_count;
-    const std::uint32_t g = order[l];
-    b.offsets[l + 1] = b.offsets[l] + (owned ? fb.offsets[g + 1] - fb.offsets[g] : 0);
-  }
+  b.offsets = owned_row_offsets(fb.offsets, layout);
   auto slice = [&](const auto& src, auto& dst) {
     if (src.empty()) return dst.clear();
     dst.assign(src.begin() + bond_first, src.begin() + bond_last);
@@ -154,12 +149,7 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, const Local
   if (!fs.offsets.empty()) {
     patch_first = fs.offsets[d.first];
     const std::uint32_t patch_last = fs.offsets[d.last];
-    s.offsets.assign(n + 1, 0);
-    for (std::size_t l = 0; l < n; ++l) {
-      const bool owned = l >= shift && l < shift + layout.owned_count;
-      const std::uint32_t g = order[l];
-      s.offsets[l + 1] = s.offsets[l] + (owned ? fs.offsets[g + 1] - fs.offsets[g] : 0);
-    }
+    s.offsets = owned_row_offsets(fs.offsets, layout);
     s.area.assign(fs.area.begin() + patch_first, fs.area.begin() + patch_last);
     s.normal.assign(fs.normal.begin() + patch_first, fs.normal.begin() + patch_last);
     s.offset.assign(fs.offset.begin() + patch_first, fs.offset.begin() + patch_last);

@@ -52,10 +52,6 @@ struct LocalLayout {
   std::size_t ghost_count() const { return global_of.size() - owned_count; }
 };
 
-// Every rank's bond ghosts (far ends of owned bonds outside the range), ascending: the same lists on
-// every rank, computed from the full world.
-std::vector<std::vector<std::uint32_t>> bond_ghosts(const WorldState& full, const std::vector<Domain>& domains);
-
 // The layout of `rank` among `domains` (ghost lists from bond_ghosts).
 LocalLayout make_layout(const WorldState& full, const std::vector<Domain>& domains, int rank);
 

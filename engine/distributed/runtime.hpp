@@ -20,7 +20,7 @@
 namespace perifx::distributed {
 
 // MPI for the life of a program: started only when the process was launched by mpirun/mpiexec
-// (Open MPI's OMPI_COMM_WORLD_SIZE, or PMI_SIZE / PMIX_RANK, in the environment) and perifx was built
+// (launched_by_mpirun below) and perifx was built
 // with PERIFX_MPI; otherwise a single process (rank 0 of 1).
 class MpiSession {
  public:
@@ -38,14 +38,18 @@ class MpiSession {
   int rank_ = 0, ranks_ = 1;
 };
 
-bool built_with_mpi();
-
-// The rank count mpirun/mpiexec launched this process among (Open MPI's OMPI_COMM_WORLD_SIZE, or
-// PMI_SIZE), 1 without a launcher.
-inline int launcher_ranks() {
+// The rank count mpirun/mpiexec put in the environment (Open MPI's OMPI_COMM_WORLD_SIZE, or
+// PMI_SIZE), or null when no launcher started this process.
+inline const char* launcher_size() {
   for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"})
-    if (const char* v = std::getenv(name)) return std::max(1, std::atoi(v));
-  return 1;
+    if (const char* v = std::getenv(name)) return v;
+  return nullptr;
+}
+inline bool launched_by_mpirun() { return launcher_size() != nullptr; }
+// The rank count this process was launched among, 1 without a launcher.
+inline int launcher_ranks() {
+  const char* v = launcher_size();
+  return v ? std::max(1, std::atoi(v)) : 1;
 }
 
 struct StepReport {
@@ -72,8 +76,6 @@ class Runtime {
   void gather(WorldState& full);
   // Rank 0's value of `flag` on every rank. Collective.
   bool broadcast(bool flag);
-  std::size_t local_particles() const;  // owned + ghosts
-  std::size_t ghosts() const;
 
  private:
   struct Impl;

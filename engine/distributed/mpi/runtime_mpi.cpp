@@ -9,6 +9,7 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "distributed/local_world.hpp"
 #include "distributed/runtime.hpp"
@@ -27,38 +28,44 @@ void check(int code, const char* what) {
   throw std::runtime_error(std::string("MPI ") + what + " failed: " + std::string(text, static_cast<std::size_t>(length)));
 }
 
-bool launched_by_mpirun() {
-  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"})
-    if (std::getenv(name)) return true;
-  return false;
-}
-
 // Messages are cut into pieces of at most this many bytes (MPI counts are int).
 constexpr std::size_t kChunk = std::size_t{1} << 30;
 
 void send_bytes(const void* data, std::size_t bytes, int to, int tag) {
   const char* p = static_cast<const char*>(data);
-  for (std::size_t at = 0; at < bytes || at == 0; at += kChunk) {
+  std::size_t at = 0;
+  do {  // one message even for 0 bytes, so both sides make the same calls
     const int n = static_cast<int>(std::min(kChunk, bytes - at));
     check(MPI_Send(p + at, n, MPI_BYTE, to, tag, MPI_COMM_WORLD), "send");
-    if (bytes == 0) break;
-  }
+    at += static_cast<std::size_t>(n);
+  } while (at < bytes);
 }
 
 void receive_bytes(void* data, std::size_t bytes, int from, int tag) {
   char* p = static_cast<char*>(data);
-  for (std::size_t at = 0; at < bytes || at == 0; at += kChunk) {
+  std::size_t at = 0;
+  do {
     const int n = static_cast<int>(std::min(kChunk, bytes - at));
     check(MPI_Recv(p + at, n, MPI_BYTE, from, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE), "receive");
-    if (bytes == 0) break;
+    at += static_cast<std::size_t>(n);
+  } while (at < bytes);
+}
+
+// Rank 0 receives every rank's slice into `target`: its own `count` elements from `mine` at
+// slice_of(0).first, the others' at slice_of(r) = [first, last); other ranks send their `count`.
+template <class T, class SliceOf>
+void gather_slices(const T* mine, std::size_t count, T* target, int rank, int ranks, int tag, SliceOf&& slice_of) {
+  if (rank != 0) return send_bytes(mine, count * sizeof(T), 0, tag);
+  std::memcpy(static_cast<void*>(target + slice_of(0).first), mine, count * sizeof(T));
+  for (int r = 1; r < ranks; ++r) {
+    const auto [first, last] = slice_of(r);
+    receive_bytes(target + first, (last - first) * sizeof(T), r, tag);
   }
 }
 
 enum Tag : int { kTagMotion = 11, kTagDilatation = 12, kTagThreshold = 13, kTagGather = 20 };
 
 }  // namespace
-
-bool built_with_mpi() { return true; }
 
 MpiSession::MpiSession(int& argc, char**& argv) {
   if (!launched_by_mpirun()) return;
@@ -120,13 +127,14 @@ struct Runtime::Impl {
 };
 
 Runtime::Runtime(const WorldState& full, int threads) : impl_(std::make_unique<Impl>()) {
-  int rank = 0, ranks = 1;
-  MPI_Initialized(&rank);
-  if (!rank) throw std::runtime_error("the distributed runtime needs MPI started (run under mpirun)");
+  int started = 0, rank = 0, ranks = 1;
+  MPI_Initialized(&started);
+  if (!started) throw std::runtime_error("the distributed runtime needs MPI started (run under mpirun)");
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &ranks);
   if (full.settings.solver != scene::Solver::peridynamics)
-    throw std::invalid_argument("the FEM solvers are not distributed: run this scene in one process");
+    throw std::invalid_argument("/solver: the FEM solvers are not distributed (expected \"peridynamics\"): run "
+                                "this scene in one process");
   Impl& m = *impl_;
   m.layout = make_layout(full, split_by_work(full, ranks), rank);
   m.local = make_local_world(full, m.layout);
@@ -181,8 +189,6 @@ Runtime::~Runtime() {
 
 int Runtime::rank() const { return impl_->layout.rank; }
 int Runtime::ranks() const { return impl_->layout.ranks; }
-std::size_t Runtime::local_particles() const { return impl_->layout.global_of.size(); }
-std::size_t Runtime::ghosts() const { return impl_->layout.ghost_count(); }
 
 StepReport Runtime::step(bool check_broken) {
   Impl& m = *impl_;
@@ -214,7 +220,6 @@ void Runtime::gather(WorldState& full) {
   Impl& m = *impl_;
   const WorldState& w = *m.local;
   const auto& layout = m.layout;
-  const int root = 0;
   full.clock = w.clock;
   // Particle arrays: the owned slice of every full-length array, into [first, last) of rank 0's.
   std::vector<void*> targets;
@@ -224,38 +229,27 @@ void Runtime::gather(WorldState& full) {
   // Which arrays travel is decided from the local world, the same on every rank (other ranks' full
   // worlds are emptied by World::distribute): the per-particle ones, not the empty ones or
   // bonds.offsets (constant, one longer).
+  auto particles_of = [&](int r) {
+    const Domain& d = layout.domains[static_cast<std::size_t>(r)];
+    return std::pair<std::size_t, std::size_t>(d.first, d.last);
+  };
   std::size_t k = 0;
   const std::size_t n_local = w.particles.count();
   for_each_array(w, [&](ArrayKind kind, const char*, const auto& array) {
     if (kind != ArrayKind::particle) return;
     auto& target = *static_cast<std::remove_cvref_t<decltype(array)>*>(targets[k++]);
     if (array.size() != n_local) return;
-    const std::size_t element = sizeof(array[0]);
-    if (layout.rank == root) {
-      std::memcpy(static_cast<void*>(target.data() + layout.domains[0].first), array.data() + layout.owned_begin,
-                  layout.owned_count * element);
-      for (int r = 1; r < layout.ranks; ++r) {
-        const Domain& d = layout.domains[static_cast<std::size_t>(r)];
-        receive_bytes(target.data() + d.first, (d.last - d.first) * element, r, kTagGather);
-      }
-    } else {
-      send_bytes(array.data() + layout.owned_begin, layout.owned_count * element, root, kTagGather);
-    }
+    gather_slices(array.data() + layout.owned_begin, layout.owned_count, target.data(), layout.rank, layout.ranks,
+                  kTagGather, particles_of);
   });
   // Bond state: a rank's bonds are the global range of its owned rows.
+  auto bonds_of = [&](int r) {
+    const auto [first, last] = particles_of(r);
+    return std::pair<std::size_t, std::size_t>(full.bonds.offsets[first], full.bonds.offsets[last]);
+  };
   auto gather_bonds = [&](const auto& mine, auto& target) {
-    if (mine.empty()) return;
-    const std::size_t element = sizeof(mine[0]);
-    if (layout.rank == root) {
-      std::memcpy(static_cast<void*>(target.data() + layout.bond_begin), mine.data(), mine.size() * element);
-      for (int r = 1; r < layout.ranks; ++r) {
-        const Domain& d = layout.domains[static_cast<std::size_t>(r)];
-        const std::uint32_t first = full.bonds.offsets[d.first], last = full.bonds.offsets[d.last];
-        receive_bytes(target.data() + first, (last - first) * element, r, kTagGather);
-      }
-    } else {
-      send_bytes(mine.data(), mine.size() * element, root, kTagGather);
-    }
+    if (!mine.empty())
+      gather_slices(mine.data(), mine.size(), target.data(), layout.rank, layout.ranks, kTagGather, bonds_of);
   };
   gather_bonds(w.bonds.alive, full.bonds.alive);
   gather_bonds(w.bonds.plastic_extension, full.bonds.plastic_extension);

@@ -13,7 +13,6 @@ namespace {
 }
 }  // namespace
 
-bool built_with_mpi() { return false; }
 MpiSession::MpiSession(int&, char**&) {}
 MpiSession::~MpiSession() = default;
 void MpiSession::abort(int exit_code) const { std::exit(exit_code); }
@@ -26,6 +25,4 @@ int Runtime::ranks() const { return 1; }
 StepReport Runtime::step(bool) { not_built(); }
 void Runtime::gather(WorldState&) { not_built(); }
 bool Runtime::broadcast(bool) { not_built(); }
-std::size_t Runtime::local_particles() const { return 0; }
-std::size_t Runtime::ghosts() const { return 0; }
 }  // namespace perifx::distributed
