@@ -89,6 +89,12 @@ struct ProjectileSet {
   // and its torque about the projectile's center (arm × (−f)), N·m. Sized at setup.
   std::vector<Vec3> particle_force;
   std::vector<Vec3> torque;
+  // This step's touching particles, in increasing particle index: per particle, for each projectile p,
+  // its force on the particle then its torque (6 doubles × projectiles). The projectiles sum it in this
+  // order; a distributed run concatenates every rank's list in rank order first, which is the same
+  // order. Reserved at setup; touched[i] = 1 when particle i touches some projectile.
+  std::vector<double> contacts;
+  std::vector<std::uint8_t> touched;
 };
 
 }  // namespace perifx

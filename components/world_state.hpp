@@ -105,6 +105,14 @@ struct WorldState {
   bool any_plastic = false;       // some material has a finite yield energy
   bool any_anisotropic = false;   // some material has G ≠ I
   bool any_fracture = false;      // some material has a finite critical stretch
+  // Distributed runs (engine/distributed/local_world.hpp): local particles [owned_first, owned_last)
+  // are this rank's own, the others ghosts whose forces nobody reads, and global_index[i] is local
+  // particle i's index in the whole world (contact sums a particle's pairs in that order). One process
+  // owns everything and leaves global_index empty (the index is its own).
+  std::uint32_t owned_first = 0;
+  std::uint32_t owned_last = std::numeric_limits<std::uint32_t>::max();
+  std::vector<std::uint32_t> global_index;
+  bool owns(std::size_t i) const { return i >= owned_first && i < owned_last; }
 };
 
 // Where an array's bytes are counted in memory reports (World::memory, `perifx info`).
@@ -225,6 +233,9 @@ void for_each_array(W& w, F&& f) {
   f(K::other, "projectiles.bodies", w.projectiles.bodies);
   f(K::other, "projectiles.particle_force", w.projectiles.particle_force);
   f(K::other, "projectiles.torque", w.projectiles.torque);
+  f(K::other, "projectiles.contacts", w.projectiles.contacts);
+  f(K::other, "projectiles.touched", w.projectiles.touched);
+  f(K::other, "global_index", w.global_index);
   f(K::other, "boundary.constrained", w.boundary.constrained);
   for (auto& list : w.boundary.particles) f(K::other, "boundary.particles", list);
   f(K::other, "surface.offsets", w.surface.offsets);

@@ -39,7 +39,12 @@
 // once, and writes it on both sides. The skin, 0.6 d_c, is what balances the cost on the fast
 // fragments of the bunny preview (dt 5e-4 s, 3 m/s landing): 0.3 rebuilt the list 313 times in 1,000
 // steps; a larger skin searches more candidates per search (∝ reach³). Each particle then gathers the forces on
-// itself from its list (no scatter, no atomics), so the result does not depend on the thread count.
+// itself from its list (no scatter, no atomics), in increasing (global) index of the partner (sort_rows),
+// so the result depends neither on the thread count nor on the list's history: a resumed run, or a rank
+// of a distributed run, whose list was built differently, sums the same contacts in the same order.
+// In a distributed run's local world (engine/distributed/local_world.hpp) only owned particles get
+// forces; a ghost has no bond row, so a ghost's own search keeps only owned partners and reads whether
+// they are bonded from their rows.
 // Every scalar of the pair term is symmetric in (i, j) and every vector flips sign exactly with r and
 // v_j − v_i, so the force j computes on itself is bit-for-bit the negative of the one i computes:
 // momentum is conserved. "Bonded": per-thread stamps of i's alive partners. Bonded pairs are left out
@@ -82,9 +87,18 @@ void for_each_candidate(const WorldState& w, std::uint32_t i, std::uint64_t stam
     if (b.alive[k]) marks[b.neighbor[k]] = stamp;
   const Vec3 yi = w.particles.position[i];
   const double reach2 = g.cell * g.cell;
+  // A ghost of a distributed run has no bond row: its pairs with other ghosts are left out (nobody
+  // reads their forces), and whether it is bonded to an owned particle j is read from j's row.
+  const bool ghost = !w.owns(i);
+  auto bonded_to_ghost = [&](std::uint32_t j) {
+    for (std::uint32_t k = b.offsets[j]; k < b.offsets[j + 1]; ++k)
+      if (b.neighbor[k] == i) return b.alive[k] != 0;
+    return false;
+  };
   auto test = [&](std::uint32_t q) {
     const std::uint32_t j = g.sorted[q];
     if (j == i || (g.sorted_position[q] - yi).squaredNorm() >= reach2 || marks[j] == stamp) return;
+    if (ghost && (!w.owns(j) || bonded_to_ghost(j))) return;
     visit(j);
   };
   if constexpr (kForwardHalf) for_each_near_forward(g, yi, i, test);
@@ -165,6 +179,27 @@ bool newly_broken_in_reach(const WorldState& w, std::size_t i, std::uint32_t k) 
   const double add_reach = w.contact.grid.cell + kBrokenReachExtra * w.contact.pairs.skin;
   const double reach2 = add_reach * add_reach;
   return w.contact.pairs.alive_at_build[k] && !b.alive[k] && (y[b.neighbor[k]] - y[i]).squaredNorm() < reach2;
+}
+
+// Puts every particle's candidates in increasing global index (WorldState::global_index; the local
+// index in one process). The force on a particle is summed over its list in this order, so it does not
+// depend on how the list was built or updated, on which rank the particle lives, or on whether the run
+// was resumed from a checkpoint (which rebuilds the list). Rows are short and mostly sorted already
+// (an update keeps the order of what it keeps): insertion sort, one row per task.
+void sort_rows(WorldState& w) {
+  auto& pr = w.contact.pairs;
+  const auto& global = w.global_index;
+  auto key = [&](std::uint32_t j) { return global.empty() ? j : global[j]; };
+  parallel_for_each(w.particles.count(), [&](std::size_t i) {
+    std::uint32_t* row = pr.neighbor.data() + pr.offsets[i];
+    const std::uint32_t length = pr.offsets[i + 1] - pr.offsets[i];
+    for (std::uint32_t a = 1; a < length; ++a) {
+      const std::uint32_t j = row[a], kj = key(j);
+      std::uint32_t at = a;
+      for (; at > 0 && key(row[at - 1]) > kj; --at) row[at] = row[at - 1];
+      row[at] = j;
+    }
+  }, 1024);
 }
 
 // Searches the moved particles (pr.moved) again and re-decides every pair with a moved end; keeps
@@ -355,8 +390,17 @@ void setup_contact(WorldState& w) {
   }
   if (!c.enabled) return;
   c.largest_distance = c.distance_factor * largest;
+  c.pairs.skin = kSkinFraction * c.largest_distance;
+  resize_contact(w);
+}
+
+void resize_contact(WorldState& w) {
+  auto& c = w.contact;
+  const std::size_t n = w.particles.count();
+  c.size.resize(n);
+  for (std::size_t i = 0; i < n; ++i) c.size[i] = std::cbrt(w.particles.volume[i]);
+  if (!c.enabled) return;
   auto& pr = c.pairs;
-  pr.skin = kSkinFraction * c.largest_distance;
   pr.offsets.assign(n + 1, 0);
   pr.count.assign(n, 0);
   // The large buffers are cleared by all threads (assign_huge_pages): at 9e5 particles and 1.4e8 bonds
@@ -389,8 +433,8 @@ SystemDecl contact_system(WorldState& w) {
             std::uint64_t broken_now = 0;
             Vec3 centroid;
             switch (pair_update_needed(w, broken_now, centroid)) {
-              case PairUpdate::rebuild: rebuild_pairs(w, broken_now, centroid); break;
-              case PairUpdate::update: update_moved_pairs(w, broken_now, centroid); break;
+              case PairUpdate::rebuild: rebuild_pairs(w, broken_now, centroid); sort_rows(w); break;
+              case PairUpdate::update: update_moved_pairs(w, broken_now, centroid); sort_rows(w); break;
               case PairUpdate::none: break;
             }
             auto& c = w.contact;
@@ -402,7 +446,7 @@ SystemDecl contact_system(WorldState& w) {
               const auto i = static_cast<std::uint32_t>(ii);
               Vec3 f = Vec3::Zero();
               const std::uint32_t first = pr.offsets[i], last = pr.offsets[i + 1];
-              if (first == last) {
+              if (first == last || !w.owns(i)) {
                 w.state.contact_force[i] = f;
                 return;
               }

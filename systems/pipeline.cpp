@@ -45,7 +45,8 @@ std::vector<SystemDecl> step_pipeline(WorldState& w, PipelineOptions options) {
     }
   }
   s.push_back(external_load_system(w));
-  if (!w.projectiles.bodies.empty()) s.push_back(projectile_contact_system(w));
+  if (!w.projectiles.bodies.empty())
+    s.push_back(projectile_contact_system(w, halo ? &halo->projectile_contacts : nullptr));
   s.push_back(kick_end_system(w));
   if (separate && w.any_fracture) {
     s.push_back(fracture_system(w));

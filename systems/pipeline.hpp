@@ -20,6 +20,8 @@ struct PipelineOptions {
     std::function<void()> motion;      // after the drift and colliders: ghosts' position, velocity
     std::function<void()> dilatation;  // after the dilatation pass: ghosts' θ and P
     std::function<void()> threshold;   // after the fracture threshold: ghosts' break extension
+    // In projectile_contact: this rank's projectile contacts → every rank's, in rank order.
+    std::function<void(std::vector<double>&)> projectile_contacts;
   };
   const Halo* halo = nullptr;
   // False for a world without the embedded tet mesh (a distributed run's local world): its systems

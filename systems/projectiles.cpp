@@ -12,12 +12,15 @@
 // from the scene's contact settings (contact.cpp explains the stiffness choice; the law is
 // contact_law.hpp, shared with particle–particle contact). The particle gets
 // +f (added to contact_force); the projectile gets −Σ_i f_i and the torque Σ_i R n_i × (−f_i), summed
-// serially in particle index order: deterministic, and momentum is exchanged exactly pair by pair.
+// serially in particle index order over the touching particles (ProjectileSet::contacts): deterministic,
+// and momentum is exchanged exactly pair by pair. A distributed run computes the owned particles'
+// contacts on each rank and sums every rank's list in rank order (the `gather` hook), the same order.
 // Projectiles do not touch each other or the kinematic colliders.
 // projectile_drift    reads time;                               writes projectiles.
 // projectile_contact  reads position, velocity, flags;           writes projectiles, contact_force.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include "contact_law.hpp"
 #include "huge_pages.hpp"
@@ -41,10 +44,19 @@ void setup_projectiles(WorldState& w) {
     pr.acceleration = w.settings.gravity;
     set.bodies.push_back(pr);
   }
-  const std::size_t slots = w.particles.count() * set.bodies.size();
+  resize_projectiles(w);
+}
+
+void resize_projectiles(WorldState& w) {
+  auto& set = w.projectiles;
+  const std::size_t n = set.bodies.empty() ? 0 : w.particles.count();
+  const std::size_t slots = n * set.bodies.size();
   // n × projectiles each (130 MB at 9e5 particles and 3 projectiles): cleared by all threads.
   assign_huge_pages(set.particle_force, slots, Vec3(Vec3::Zero()));
   assign_huge_pages(set.torque, slots, Vec3(Vec3::Zero()));
+  set.touched.assign(n, 0);
+  set.contacts.clear();
+  set.contacts.reserve(std::min<std::size_t>(n, 4096) * 6 * set.bodies.size());
 }
 
 SystemDecl projectile_drift_system(WorldState& w) {
@@ -58,11 +70,11 @@ SystemDecl projectile_drift_system(WorldState& w) {
           }};
 }
 
-SystemDecl projectile_contact_system(WorldState& w) {
+SystemDecl projectile_contact_system(WorldState& w, const std::function<void(std::vector<double>&)>* gather) {
   return {"projectile_contact",
           {Component::position, Component::velocity, Component::flags},
           {Component::projectiles, Component::contact_force},
-          [&w] {
+          [&w, gather] {
             auto& set = w.projectiles;
             const auto& c = w.contact;
             const auto& p = w.particles;
@@ -72,6 +84,8 @@ SystemDecl projectile_contact_system(WorldState& w) {
             // Particle–particle contact wrote contact_force this step when it is on; otherwise it is ours.
             const bool add = c.enabled;
             parallel_for_each(n, [&](std::size_t i) {
+              set.touched[i] = 0;
+              if (!w.owns(i)) return;  // a ghost: its owner computes its contacts
               Vec3 total = Vec3::Zero();
               const Vec3 yi = p.position[i];
               const double mi = p.mass[i];
@@ -101,15 +115,30 @@ SystemDecl projectile_contact_system(WorldState& w) {
                 f_out = f;
                 t_out = arm.cross(Vec3(-f));
                 total += f;
+                set.touched[i] = 1;
               }
               w.state.contact_force[i] = add ? Vec3(w.state.contact_force[i] + total) : total;
             }, 1024);
+            // The touching particles in index order (serial: the list's order is the sum's order).
+            // Particles that touch no projectile would add exact zeros, so leaving them out changes no bit.
+            set.contacts.clear();
+            for (std::size_t i = 0; i < n; ++i) {
+              if (!set.touched[i]) continue;
+              for (std::size_t k = 0; k < np; ++k) {
+                const Vec3& f = set.particle_force[i * np + k];
+                const Vec3& t = set.torque[i * np + k];
+                set.contacts.insert(set.contacts.end(), {f.x(), f.y(), f.z(), t.x(), t.y(), t.z()});
+              }
+            }
+            if (gather && *gather) (*gather)(set.contacts);  // every rank's list, in rank order
+            const std::size_t entries = set.contacts.size() / (6 * std::max<std::size_t>(np, 1));
             for (std::size_t k = 0; k < np; ++k) {
               Projectile& pr = set.bodies[k];
               Vec3 force = Vec3::Zero(), torque = Vec3::Zero();
-              for (std::size_t i = 0; i < n; ++i) {  // fixed order: deterministic
-                force -= set.particle_force[i * np + k];
-                torque += set.torque[i * np + k];
+              for (std::size_t e = 0; e < entries; ++e) {  // fixed order: deterministic
+                const double* c6 = set.contacts.data() + (e * np + k) * 6;
+                force -= Vec3(c6[0], c6[1], c6[2]);
+                torque += Vec3(c6[3], c6[4], c6[5]);
               }
               pr.contact_force = force;
               pr.acceleration = force / pr.mass + w.settings.gravity;

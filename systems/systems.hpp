@@ -4,6 +4,7 @@
 // The separate systems (plasticity, elastic_force, fracture, damage) are the test oracle for bond_pass
 // (same bits; tests/systems/test_fracture.cpp); the step itself does not use them.
 #pragma once
+#include <functional>
 #include <vector>
 
 #include "components/world_state.hpp"
@@ -34,6 +35,10 @@ double strength_noise(const Vec3& x, double feature_size, std::uint64_t seed);  
 // contact.cpp / projectiles.cpp: resolve the scene's contact settings and projectiles, size buffers.
 void setup_contact(WorldState& world);
 void setup_projectiles(WorldState& world);
+// Re-sizes the contact and projectile buffers after the particle count changed (a distributed run's
+// contact ghosts come and go) and drops the pair list; the settings and largest distance stay.
+void resize_contact(WorldState& world);
+void resize_projectiles(WorldState& world);
 // embedded_mesh.cpp: WorldState::embedded from WorldState::mesh, its face adjacency and the bonds
 // (after initial cracks: face pairs without a bond start as crack faces). Run after the bonds exist.
 void setup_embedded_mesh(WorldState& world, const std::vector<std::array<std::int32_t, 4>>& tet_face_neighbors);
@@ -127,7 +132,10 @@ SystemDecl external_load_system(WorldState& world);
 SystemDecl kick_end_system(WorldState& world);
 SystemDecl contact_system(WorldState& world);
 SystemDecl projectile_drift_system(WorldState& world);
-SystemDecl projectile_contact_system(WorldState& world);
+// `gather`, when set (a distributed run), turns this rank's list of projectile contacts
+// (ProjectileSet::contacts) into every rank's, in rank order, before the projectiles sum it.
+SystemDecl projectile_contact_system(WorldState& world,
+                                     const std::function<void(std::vector<double>&)>* gather = nullptr);
 SystemDecl plasticity_system(WorldState& world);  // test oracle for bond_pass
 SystemDecl fracture_system(WorldState& world);  // test oracle for bond_pass
 SystemDecl damage_system(WorldState& world);  // test oracle for bond_pass

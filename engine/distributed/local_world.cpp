@@ -2,12 +2,20 @@
 #include "distributed/local_world.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
 
+#include "systems/spatial_grid.hpp"
+#include "systems/systems.hpp"
+
 namespace perifx::distributed {
 namespace {
+
+// Contact ghost skin, × the largest contact distance d_c,max. Larger: fewer refreshes, more ghosts
+// (the layer is d_c,max + skin, a little less than the usual horizon of three spacings at 2).
+constexpr double kContactGhostSkin = 2.0;
 
 // Owned-and-ghost local order of rank r: ghosts below, the owned range, ghosts above.
 std::vector<std::uint32_t> local_order(const Domain& d, const std::vector<std::uint32_t>& ghosts) {
@@ -78,15 +86,7 @@ LocalLayout make_layout(const WorldState& full, const std::vector<Domain>& domai
   return l;
 }
 
-std::unique_ptr<WorldState> make_local_world(const WorldState& full, const LocalLayout& layout) {
-  if (full.contact.enabled)
-    throw std::invalid_argument("/contact/enabled: particle contact is not distributed yet (got true; it is on by "
-                                "default when a material can break or there are two bodies): set \"contact\": "
-                                "{\"enabled\": false}, or run this scene in one process");
-  if (!full.projectiles.bodies.empty())
-    throw std::invalid_argument("/projectiles: projectiles are not distributed yet (got " +
-                                std::to_string(full.projectiles.bodies.size()) +
-                                "): run this scene in one process");
+std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout& layout) {
   const Domain& d = layout.domains[static_cast<std::size_t>(layout.rank)];
   const auto& order = layout.global_of;
   const std::size_t n_full = full.particles.count(), n = order.size();
@@ -99,7 +99,9 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, const Local
   w->any_anisotropic = full.any_anisotropic;
   w->any_fracture = full.any_fracture;
   w->bodies = full.bodies;  // names and measures only; nothing in the step reads their ranges
-  w->contact.enabled = false;
+  w->owned_first = shift;
+  w->owned_last = shift + layout.owned_count;
+  w->global_index = order;
 
   // Per-particle arrays: every array for_each_array lists as a particle array of full length is
   // gathered through the local order (bonds.offsets, one longer, is rebuilt below). Both visits list
@@ -178,7 +180,147 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, const Local
     ld.patch_offsets.push_back(std::move(patch_offsets));
     ld.patches.push_back(std::move(patches));
   }
+
+  // Contact: the whole world's settings and largest contact distance (so every rank's list reaches as
+  // far); the pair list is built on the first step. Projectiles: the same spheres on every rank.
+  const ContactState& fc = full.contact;
+  ContactState& c = w->contact;
+  c.enabled = fc.enabled;
+  c.distance_factor = fc.distance_factor;
+  c.stiffness_factor = fc.stiffness_factor;
+  c.damping_ratio = fc.damping_ratio;
+  c.friction = fc.friction;
+  c.largest_distance = fc.largest_distance;
+  c.pairs.skin = fc.pairs.skin;
+  systems::resize_contact(*w);
+  w->projectiles.bodies = full.projectiles.bodies;
+  systems::resize_projectiles(*w);
+  layout.base_count = static_cast<std::uint32_t>(n);
+  layout.contact_skin = kContactGhostSkin * fc.largest_distance;
+  layout.contact_layer = fc.largest_distance + layout.contact_skin;
   return w;
+}
+
+std::vector<std::uint64_t> contact_cells(const WorldState& local, const LocalLayout& layout) {
+  const double inv_cell = 1.0 / layout.contact_layer;
+  std::vector<std::uint64_t> cells(layout.owned_count);
+  for (std::uint32_t m = 0; m < layout.owned_count; ++m)
+    cells[m] = systems::key(systems::cell_at(local.particles.position[layout.owned_begin + m], inv_cell));
+  std::sort(cells.begin(), cells.end());
+  cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+  return cells;
+}
+
+void find_contact_sends(const WorldState& local, LocalLayout& layout,
+                        const std::vector<std::vector<std::uint64_t>>& cells_by_rank) {
+  const double inv_cell = 1.0 / layout.contact_layer;
+  const auto& y = local.particles.position;
+  layout.contact_sends.clear();
+  for (int q = 0; q < layout.ranks; ++q) {
+    const auto& theirs = cells_by_rank[static_cast<std::size_t>(q)];
+    if (q == layout.rank || theirs.empty()) continue;
+    // Particles q already holds as bond ghosts have their motion sent anyway.
+    std::vector<std::uint32_t> bond_ghosts;
+    for (const auto& link : layout.sends)
+      if (link.rank == q) bond_ghosts = link.local;
+    HaloLink out{q, {}};
+    for (std::uint32_t i = layout.owned_begin; i < layout.owned_begin + layout.owned_count; ++i) {
+      const systems::Cell c = systems::cell_at(y[i], inv_cell);
+      bool near = false;
+      for (int dz = -1; dz <= 1 && !near; ++dz)
+        for (int dy = -1; dy <= 1 && !near; ++dy)
+          for (int dx = -1; dx <= 1 && !near; ++dx)
+            near = std::binary_search(theirs.begin(), theirs.end(), systems::key({c.x + dx, c.y + dy, c.z + dz}));
+      if (near && !std::binary_search(bond_ghosts.begin(), bond_ghosts.end(), i)) out.local.push_back(i);
+    }
+    if (!out.local.empty()) layout.contact_sends.push_back(std::move(out));
+  }
+  layout.refreshed_at.assign(y.begin() + layout.owned_begin, y.begin() + layout.owned_begin + layout.owned_count);
+}
+
+namespace {
+
+// Calls f(array) for every per-particle array of the local world's current length (the ones a contact
+// ghost record carries), in for_each_array's order, the same on every rank.
+template <class W, class F>
+void for_each_particle_array(W& local, F&& f) {
+  const std::size_t n = local.particles.count();
+  for_each_array(local, [&](ArrayKind kind, const char*, auto& array) {
+    if (kind == ArrayKind::particle && array.size() == n) f(array);
+  });
+}
+
+std::size_t record_bytes(const WorldState& local) {
+  std::size_t bytes = sizeof(std::uint32_t);  // the global index
+  for_each_particle_array(local, [&](const auto& array) { bytes += sizeof(array[0]); });
+  return bytes;
+}
+
+}  // namespace
+
+std::vector<char> pack_contact_ghosts(const WorldState& local, const HaloLink& link) {
+  std::vector<char> out(link.local.size() * record_bytes(local));
+  char* at = out.data();
+  for (std::uint32_t i : link.local) {
+    std::memcpy(at, &local.global_index[i], sizeof(std::uint32_t));
+    at += sizeof(std::uint32_t);
+    for_each_particle_array(local, [&](const auto& array) {
+      std::memcpy(at, &array[i], sizeof(array[0]));
+      at += sizeof(array[0]);
+    });
+  }
+  return out;
+}
+
+void set_contact_ghosts(WorldState& local, LocalLayout& layout,
+                        const std::vector<std::pair<int, std::vector<char>>>& received_by_rank) {
+  const std::size_t record = record_bytes(local);
+  std::size_t total = 0;
+  for (const auto& [rank, bytes] : received_by_rank) total += bytes.size() / record;
+  // Drop the previous contact ghosts, then append the new ones.
+  const std::size_t base = layout.base_count, n = base + total;
+  for_each_particle_array(local, [&](auto& array) { array.resize(n); });
+  auto& offsets = local.bonds.offsets;
+  offsets.resize(base + 1);
+  offsets.resize(n + 1, offsets[base]);  // contact ghosts have no bonds here
+  layout.global_of.resize(base);
+  layout.contact_receives.clear();
+  std::size_t at_particle = base;
+  for (const auto& [rank, bytes] : received_by_rank) {
+    if (bytes.empty()) continue;
+    HaloLink in{rank, {}};
+    const char* at = bytes.data();
+    for (std::size_t m = 0; m < bytes.size() / record; ++m, ++at_particle) {
+      const auto i = static_cast<std::uint32_t>(at_particle);
+      std::uint32_t global = 0;
+      std::memcpy(&global, at, sizeof global);
+      at += sizeof global;
+      for_each_particle_array(local, [&](auto& array) {
+        std::memcpy(static_cast<void*>(&array[i]), at, sizeof(array[0]));
+        at += sizeof(array[0]);
+      });
+      local.particles.flags[i] |= kPrescribed;
+      layout.global_of.push_back(global);
+      in.local.push_back(i);
+    }
+    layout.contact_receives.push_back(std::move(in));
+  }
+  local.global_index = layout.global_of;
+  systems::resize_contact(local);
+  systems::resize_projectiles(local);
+}
+
+bool contact_ghosts_stale(const WorldState& local, const LocalLayout& layout) {
+  if (layout.refreshed_at.size() != layout.owned_count) return true;
+  const double dt = local.clock.dt, limit = 0.5 * layout.contact_skin;
+  const auto& p = local.particles;
+  for (std::uint32_t m = 0; m < layout.owned_count; ++m) {
+    const std::uint32_t i = layout.owned_begin + m;
+    const double reach = (p.position[i] - layout.refreshed_at[m]).norm() +
+                         2.0 * dt * (p.velocity[i].norm() + dt * p.acceleration[i].norm());
+    if (!(reach <= limit)) return true;  // NaN: stale (the health check reports it)
+  }
+  return false;
 }
 
 }  // namespace perifx::distributed

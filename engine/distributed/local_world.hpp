@@ -22,11 +22,26 @@
 // Owned bond rows keep their global order, so a rank's bonds are the global bond range
 // [offsets[first], offsets[last]) as is: gathering them for output is a plain concatenation.
 //
-// What a local world does not hold (yet): the embedded tet mesh, particle contact and projectiles
-// (make_local_world refuses worlds that use the latter two).
+// Contact ghosts. Particle contact needs, besides the bond ghosts, every particle of another rank that
+// can come within the contact distance of an owned one. Those change as pieces move, so they are
+// appended after the bond ghosts and the owned range (not in global order; WorldState::global_index
+// says who they are) and refreshed with a skin, as a Verlet list is: at a refresh a rank receives every
+// particle within contact_layer = d_c,max + contact_skin of one of its owned particles, and the set
+// stays complete until some particle anywhere has moved more than contact_skin/2 since (then two
+// particles have closed by at most contact_skin). "Within" is tested on cells of size contact_layer:
+// each rank lists the cells its owned particles occupy, and a particle goes to every rank that
+// occupies one of the 27 cells around its own. Contact ghosts move with the motion halo; the contact
+// system sums an owned particle's pairs in increasing global index, so its force has the one-process
+// bits whichever ghosts are present (systems/contact.cpp).
+//
+// Projectiles are replicated: every rank steps the same spheres; the forces they receive are summed
+// over every rank's touching particles in global order (projectile_contact's gather, runtime).
+//
+// What a local world does not hold (yet): the embedded tet mesh.
 #pragma once
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "components/world_state.hpp"
@@ -50,14 +65,39 @@ struct LocalLayout {
   std::vector<HaloLink> sends;            // owned particles other ranks hold as ghosts, by rank
   std::vector<HaloLink> receives;         // this rank's ghosts, by owning rank
   std::size_t ghost_count() const { return global_of.size() - owned_count; }
+
+  // Contact ghosts (worlds with particle contact; see above). global_of grows by them, in the order
+  // they were appended: by sending rank, each rank's in increasing global index.
+  std::uint32_t base_count = 0;           // owned particles and bond ghosts: the local particles before them
+  double contact_layer = 0.0;             // m
+  double contact_skin = 0.0;              // m
+  std::vector<HaloLink> contact_sends;    // owned particles other ranks hold as contact ghosts, by rank
+  std::vector<HaloLink> contact_receives; // this rank's contact ghosts, by owning rank
+  std::vector<Vec3> refreshed_at;         // per owned particle: its position at the last refresh, m
 };
 
 // The layout of `rank` among `domains` (ghost lists from bond_ghosts).
 LocalLayout make_layout(const WorldState& full, const std::vector<Domain>& domains, int rank);
 
-// The local world of a layout: a copy of the owned particles and their ghosts, their bonds, boundary
-// conditions and loads, remapped to local indices. Throws std::invalid_argument for worlds that use
-// particle contact or projectiles (not distributed yet).
-std::unique_ptr<WorldState> make_local_world(const WorldState& full, const LocalLayout& layout);
+// The local world of a layout: a copy of the owned particles and their bond ghosts, their bonds,
+// boundary conditions, loads, contact settings and projectiles, remapped to local indices. Sets the
+// layout's contact layer and skin.
+std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout& layout);
+
+// A contact ghost refresh, in four steps: every rank lists its occupied cells (contact_cells); the
+// lists go to every rank; each rank finds what it sends (find_contact_sends), packs it
+// (pack_contact_ghosts: whole particle records, every per-particle array), and the receiver appends
+// what it got (set_contact_ghosts), which replaces the previous contact ghosts. The transport is the
+// runtime's (or the in-process test's).
+std::vector<std::uint64_t> contact_cells(const WorldState& local, const LocalLayout& layout);
+void find_contact_sends(const WorldState& local, LocalLayout& layout,
+                        const std::vector<std::vector<std::uint64_t>>& cells_by_rank);
+std::vector<char> pack_contact_ghosts(const WorldState& local, const HaloLink& link);
+void set_contact_ghosts(WorldState& local, LocalLayout& layout,
+                        const std::vector<std::pair<int, std::vector<char>>>& received_by_rank);
+// This rank's half of the refresh test: some owned particle may, after the next step's drift, be more
+// than contact_skin/2 from where it was at the last refresh (the bound is 2 × (dt|v| + dt²|a|), twice
+// the drift's own displacement, which leaves room for boundary conditions and colliders).
+bool contact_ghosts_stale(const WorldState& local, const LocalLayout& layout);
 
 }  // namespace perifx::distributed

@@ -4,8 +4,9 @@
 // never starts MPI and make_runtime throws.
 //
 // Bit-identical to one process: owned particles compute from the same values in the same order
-// (local_world.hpp), the halo copies values bit for bit, and the only reductions (health, first break)
-// are a minimum and a logical or, whose result does not depend on the order.
+// (local_world.hpp), the halo copies values bit for bit, the per-step reduction (health, first break,
+// contact ghosts stale) is three minima, whose result does not depend on the order, and the projectiles'
+// contacts are concatenated in rank order, which is particle order.
 //
 // Output: gather() copies every rank's owned particle and bond data into rank 0's full world, in
 // particle order, so rank 0 writes the same files as one process.
@@ -61,7 +62,7 @@ class Runtime {
  public:
   // Splits `full` over the ranks of MPI_COMM_WORLD (decomposition.hpp) and builds this rank's local
   // world and its step graph on `threads` threads. Collective. Throws std::invalid_argument for a
-  // world the runtime cannot split yet (contact, projectiles, FEM) and std::runtime_error without MPI.
+  // world the runtime cannot split yet (the FEM solvers) and std::runtime_error without MPI.
   Runtime(const WorldState& full, int threads);
   ~Runtime();
   Runtime(const Runtime&) = delete;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -65,6 +66,24 @@ void gather_slices(const T* mine, std::size_t count, T* target, int rank, int ra
 
 enum Tag : int { kTagMotion = 11, kTagDilatation = 12, kTagThreshold = 13, kTagGather = 20 };
 
+// Per rank, one link holding a's particles then b's (both lists of links ordered by rank).
+std::vector<HaloLink> merge_links(const std::vector<HaloLink>& a, const std::vector<HaloLink>& b) {
+  std::vector<HaloLink> out = a;
+  for (const HaloLink& link : b) {
+    auto at = std::find_if(out.begin(), out.end(), [&](const HaloLink& l) { return l.rank == link.rank; });
+    if (at == out.end()) at = out.insert(std::find_if(out.begin(), out.end(), [&](const HaloLink& l) { return l.rank > link.rank; }), HaloLink{link.rank, {}});
+    at->local.insert(at->local.end(), link.local.begin(), link.local.end());
+  }
+  return out;
+}
+
+int int_count(std::size_t count, const char* what) {
+  if (count > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+    throw std::runtime_error(std::string("a ") + what + " message is larger than MPI's int count (" +
+                             std::to_string(count) + ")");
+  return static_cast<int>(count);
+}
+
 }  // namespace
 
 MpiSession::MpiSession(int& argc, char**& argv) {
@@ -94,35 +113,112 @@ struct Runtime::Impl {
   std::unique_ptr<WorldState> local;
   std::unique_ptr<Scheduler> scheduler;
   systems::PipelineOptions::Halo halo;
-  // Per stage and link: packed values, sized once (no allocation in a step).
-  std::vector<std::vector<double>> send_buffer, receive_buffer;
+  // The motion halo's links: the bond ghosts' and the contact ghosts' (set at each contact refresh).
+  std::vector<HaloLink> motion_sends, motion_receives;
+  // Per link: packed values, sized when the links are (no allocation in a step). Motion carries 6
+  // doubles per particle, the other stages 1 over the bond links.
+  std::vector<std::vector<double>> send_buffer, receive_buffer, motion_send_buffer, motion_receive_buffer;
   std::vector<MPI_Request> requests;
+  std::vector<int> counts, displacements;  // per rank, for the collectives with a count per rank
+  std::uint64_t contact_refreshes = 0;
+  std::vector<double> projectile_mine;     // this rank's projectile contacts, while they are gathered
 
-  // One halo stage: `width` doubles per particle, packed by `pack`, unpacked by `unpack`.
+  // One halo stage over (sends, receives): `width` doubles per particle, packed by `pack`, unpacked
+  // by `unpack`.
   template <class Pack, class Unpack>
-  void exchange(int width, int tag, Pack&& pack, Unpack&& unpack) {
+  void exchange(const std::vector<HaloLink>& sends, const std::vector<HaloLink>& receives,
+                std::vector<std::vector<double>>& send_buf, std::vector<std::vector<double>>& receive_buf, int width,
+                int tag, Pack&& pack, Unpack&& unpack) {
     const auto w = static_cast<std::size_t>(width);
     std::size_t r = 0;
-    for (std::size_t q = 0; q < layout.receives.size(); ++q, ++r) {
-      const auto& link = layout.receives[q];
-      check(MPI_Irecv(receive_buffer[q].data(), static_cast<int>(link.local.size() * w), MPI_DOUBLE, link.rank, tag,
+    for (std::size_t q = 0; q < receives.size(); ++q, ++r) {
+      const auto& link = receives[q];
+      check(MPI_Irecv(receive_buf[q].data(), static_cast<int>(link.local.size() * w), MPI_DOUBLE, link.rank, tag,
                       MPI_COMM_WORLD, &requests[r]),
             "receive");
     }
-    for (std::size_t q = 0; q < layout.sends.size(); ++q, ++r) {
-      const auto& link = layout.sends[q];
-      double* out = send_buffer[q].data();
+    for (std::size_t q = 0; q < sends.size(); ++q, ++r) {
+      const auto& link = sends[q];
+      double* out = send_buf[q].data();
       for (std::size_t m = 0; m < link.local.size(); ++m) pack(link.local[m], out + m * w);
       check(MPI_Isend(out, static_cast<int>(link.local.size() * w), MPI_DOUBLE, link.rank, tag, MPI_COMM_WORLD,
                       &requests[r]),
             "send");
     }
-    check(MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE), "wait");
-    for (std::size_t q = 0; q < layout.receives.size(); ++q) {
-      const auto& link = layout.receives[q];
-      const double* in = receive_buffer[q].data();
+    check(MPI_Waitall(static_cast<int>(r), requests.data(), MPI_STATUSES_IGNORE), "wait");
+    for (std::size_t q = 0; q < receives.size(); ++q) {
+      const auto& link = receives[q];
+      const double* in = receive_buf[q].data();
       for (std::size_t m = 0; m < link.local.size(); ++m) unpack(link.local[m], in + m * w);
     }
+  }
+
+  // The motion links and their buffers, from the bond links and the current contact ghosts.
+  void set_motion_links() {
+    motion_sends = merge_links(layout.sends, layout.contact_sends);
+    motion_receives = merge_links(layout.receives, layout.contact_receives);
+    motion_send_buffer.clear();
+    motion_receive_buffer.clear();
+    for (const auto& link : motion_sends) motion_send_buffer.emplace_back(6 * link.local.size());
+    for (const auto& link : motion_receives) motion_receive_buffer.emplace_back(6 * link.local.size());
+    requests.resize(std::max(requests.size(), motion_sends.size() + motion_receives.size()));
+  }
+
+  // Every rank's `mine` (count elements of `type` each), concatenated in rank order into `all`.
+  template <class T>
+  void all_gather(const std::vector<T>& mine, std::vector<T>& all, MPI_Datatype type) {
+    const int count = int_count(mine.size(), "gather");
+    check(MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD), "allgather");
+    std::size_t total = 0;
+    for (std::size_t q = 0; q < counts.size(); ++q) {
+      displacements[q] = int_count(total, "gather");
+      total += static_cast<std::size_t>(counts[q]);
+    }
+    all.resize(total);
+    check(MPI_Allgatherv(mine.data(), count, type, all.data(), counts.data(), displacements.data(), type,
+                         MPI_COMM_WORLD),
+          "allgatherv");
+  }
+
+  // A contact ghost refresh (local_world.hpp): occupied cells to every rank, then each rank's records
+  // to the ranks near them. Collective.
+  void refresh_contact_ghosts() {
+    WorldState& w = *local;
+    const auto ranks = static_cast<std::size_t>(layout.ranks);
+    std::vector<std::uint64_t> all_cells;
+    all_gather(contact_cells(w, layout), all_cells, MPI_UINT64_T);
+    std::vector<std::vector<std::uint64_t>> cells_by_rank(ranks);
+    for (std::size_t q = 0; q < ranks; ++q)
+      cells_by_rank[q].assign(all_cells.begin() + displacements[q], all_cells.begin() + displacements[q] + counts[q]);
+    find_contact_sends(w, layout, cells_by_rank);
+    std::vector<int> send_counts(ranks, 0), send_displacements(ranks, 0), receive_counts(ranks, 0),
+        receive_displacements(ranks, 0);
+    std::vector<char> out;
+    for (const auto& link : layout.contact_sends) {
+      const auto q = static_cast<std::size_t>(link.rank);
+      std::vector<char> packed = pack_contact_ghosts(w, link);
+      send_displacements[q] = int_count(out.size(), "contact ghost");
+      send_counts[q] = int_count(packed.size(), "contact ghost");
+      out.insert(out.end(), packed.begin(), packed.end());
+    }
+    check(MPI_Alltoall(send_counts.data(), 1, MPI_INT, receive_counts.data(), 1, MPI_INT, MPI_COMM_WORLD), "alltoall");
+    std::size_t total = 0;
+    for (std::size_t q = 0; q < ranks; ++q) {
+      receive_displacements[q] = int_count(total, "contact ghost");
+      total += static_cast<std::size_t>(receive_counts[q]);
+    }
+    std::vector<char> in(total);
+    check(MPI_Alltoallv(out.data(), send_counts.data(), send_displacements.data(), MPI_BYTE, in.data(),
+                        receive_counts.data(), receive_displacements.data(), MPI_BYTE, MPI_COMM_WORLD),
+          "alltoallv");
+    std::vector<std::pair<int, std::vector<char>>> received;
+    for (std::size_t q = 0; q < ranks; ++q)
+      if (receive_counts[q] > 0)
+        received.emplace_back(static_cast<int>(q), std::vector<char>(in.begin() + receive_displacements[q],
+                                                                     in.begin() + receive_displacements[q] + receive_counts[q]));
+    set_contact_ghosts(w, layout, received);
+    set_motion_links();
+    ++contact_refreshes;
   }
 };
 
@@ -138,17 +234,20 @@ Runtime::Runtime(const WorldState& full, int threads) : impl_(std::make_unique<I
   Impl& m = *impl_;
   m.layout = make_layout(full, split_by_work(full, ranks), rank);
   m.local = make_local_world(full, m.layout);
-  // The widest stage carries 6 doubles per particle (motion).
-  for (const auto& link : m.layout.sends) m.send_buffer.emplace_back(6 * link.local.size());
-  for (const auto& link : m.layout.receives) m.receive_buffer.emplace_back(6 * link.local.size());
+  for (const auto& link : m.layout.sends) m.send_buffer.emplace_back(link.local.size());
+  for (const auto& link : m.layout.receives) m.receive_buffer.emplace_back(link.local.size());
   m.requests.resize(m.layout.sends.size() + m.layout.receives.size());
+  m.counts.resize(static_cast<std::size_t>(ranks));
+  m.displacements.resize(static_cast<std::size_t>(ranks));
+  m.set_motion_links();
 
   WorldState& w = *m.local;
+  if (w.contact.enabled) m.refresh_contact_ghosts();
   m.halo.motion = [&m, &w] {
     auto& y = w.particles.position;
     auto& v = w.particles.velocity;
     m.exchange(
-        6, kTagMotion,
+        m.motion_sends, m.motion_receives, m.motion_send_buffer, m.motion_receive_buffer, 6, kTagMotion,
         [&](std::uint32_t i, double* out) {
           std::memcpy(out, y[i].data(), 3 * sizeof(double));
           std::memcpy(out + 3, v[i].data(), 3 * sizeof(double));
@@ -163,7 +262,7 @@ Runtime::Runtime(const WorldState& full, int threads) : impl_(std::make_unique<I
     auto& coupling = w.state.dilatation_coupling;
     // θ travels; P follows from it and constants the ghost already has, with the same expression.
     m.exchange(
-        1, kTagDilatation, [&](std::uint32_t i, double* out) { out[0] = theta[i]; },
+        m.layout.sends, m.layout.receives, m.send_buffer, m.receive_buffer, 1, kTagDilatation, [&](std::uint32_t i, double* out) { out[0] = theta[i]; },
         [&](std::uint32_t i, const double* in) {
           theta[i] = in[0];
           coupling[i] = systems::dilatation_coupling(w.model, i, in[0]);
@@ -172,8 +271,12 @@ Runtime::Runtime(const WorldState& full, int threads) : impl_(std::make_unique<I
   m.halo.threshold = [&m, &w] {
     auto& limit = w.state.break_extension;
     m.exchange(
-        1, kTagThreshold, [&](std::uint32_t i, double* out) { out[0] = limit[i]; },
+        m.layout.sends, m.layout.receives, m.send_buffer, m.receive_buffer, 1, kTagThreshold, [&](std::uint32_t i, double* out) { out[0] = limit[i]; },
         [&](std::uint32_t i, const double* in) { limit[i] = in[0]; });
+  };
+  m.halo.projectile_contacts = [&m](std::vector<double>& contacts) {
+    m.projectile_mine.assign(contacts.begin(), contacts.end());  // allocates only when it outgrows itself
+    m.all_gather(m.projectile_mine, contacts, MPI_DOUBLE);
   };
   m.scheduler = std::make_unique<Scheduler>(threads);
   systems::PipelineOptions options;
@@ -197,16 +300,20 @@ StepReport Runtime::step(bool check_broken) {
   auto& c = w.clock;
   ++c.step;
   c.time = static_cast<double>(c.step) * c.dt;
-  // [0] lowest unstable global index, [1] 0 when some owned particle has a broken bond: both minima.
-  std::uint64_t mine[2] = {ParticleState::kAllStable, 1};
+  // [0] lowest unstable global index, [1] 0 when some owned particle has a broken bond, [2] 0 when
+  // the contact ghosts must be refreshed before the next step: all three minima.
+  std::uint64_t mine[3] = {ParticleState::kAllStable, 1, 1};
   if (w.state.unstable_particle != ParticleState::kAllStable)
     mine[0] = m.layout.global_of[static_cast<std::size_t>(w.state.unstable_particle)];
   if (check_broken) {
     const auto* broken = w.state.broken_bonds.data() + m.layout.owned_begin;
     if (std::any_of(broken, broken + m.layout.owned_count, [](std::uint32_t b) { return b != 0; })) mine[1] = 0;
   }
-  std::uint64_t all[2];
-  check(MPI_Allreduce(mine, all, 2, MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD), "allreduce");
+  if (w.contact.enabled && contact_ghosts_stale(w, m.layout)) mine[2] = 0;
+  std::uint64_t all[3];
+  check(MPI_Allreduce(mine, all, 3, MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD), "allreduce");
+  // Not after a blow-up: the run stops, and its positions may not be finite.
+  if (all[2] == 0 && all[0] == ParticleState::kAllStable) m.refresh_contact_ghosts();
   return {all[0], all[1] == 0};
 }
 
@@ -221,6 +328,17 @@ void Runtime::gather(WorldState& full) {
   const WorldState& w = *m.local;
   const auto& layout = m.layout;
   full.clock = w.clock;
+  full.projectiles.bodies = w.projectiles.bodies;  // the same on every rank
+  // summary.json's contact list counters: this rank's (rank 0's, where they are written).
+  const ContactPairs& pairs = w.contact.pairs;
+  ContactPairs& full_pairs = full.contact.pairs;
+  full_pairs.builds = pairs.builds;
+  full_pairs.additions = pairs.additions;
+  full_pairs.partial_updates = pairs.partial_updates;
+  full_pairs.searched = pairs.searched;
+  // The full world's own pair list is not stepped: a one-process resume of a checkpoint written from
+  // it builds a new one (the same forces: contact sums each particle's pairs in index order).
+  full_pairs.valid = false;
   // Particle arrays: the owned slice of every full-length array, into [first, last) of rank 0's.
   std::vector<void*> targets;
   for_each_array(full, [&](ArrayKind kind, const char*, auto& array) {

@@ -141,8 +141,8 @@ class World {
   // over the MPI job's ranks, every rank calling it on the same world: from then on step() advances
   // this rank's share and exchanges halos with the others, bit-identical to one process. On rank 0
   // the accessors show the whole world as of the last gather(); on other ranks the world's arrays are
-  // released and only the clock, scene and counts of step() remain. Particle contact, projectiles and
-  // the FEM solvers are not distributed yet (std::invalid_argument); a build without MPI throws
+  // released and only the clock, scene and counts of step() remain. The FEM solvers are not
+  // distributed yet (std::invalid_argument); a build without MPI throws
   // std::runtime_error. All four calls are collective: every rank makes them in the same order.
   void distribute();
   void gather();                    // rank 0's view of every particle and bond becomes current

@@ -1,16 +1,18 @@
 #!/usr/bin/env bash
-# Distributed runs are bit-identical to one process (issue 17): runs mpi_tear.json (plasticity, fracture
-# with damage-dependent limits, an anchor, a velocity condition, gravity and a surface traction) in one
-# process, then under mpirun at 1, 2, 3 and 4 ranks of 1 thread and at 2 ranks of 2 threads, and
-# compares every frame file (particles.NNNN.vtu and .ply, particles.pvd) byte for byte. It first checks
-# that the reference run yields and breaks bonds, so the comparison covers both. Then a run of 2 ranks
-# stopped at frame 7 is resumed from its checkpoint by 3 ranks, and by one process: the same bytes. --bind-to none: Open
-# MPI otherwise pins each rank to one core, and oneTBB would then run 2 threads on it as 1.
+# Distributed runs are bit-identical to one process (issue 17): runs mpi_impact.json (plasticity,
+# fracture with damage-dependent limits, particle contact with friction, a steel ball, an anchor, a
+# velocity condition, gravity and a surface traction) in one process, then under mpirun at 1, 2, 3 and
+# 4 ranks of 1 thread and at 2 ranks of 2 threads, and compares every frame file (particles.NNNN.vtu
+# and .ply, particles.pvd) and projectiles.csv byte for byte. It first checks that the reference run
+# yields, breaks bonds and that the ball strikes, so the comparison covers all three. Then a run of 2
+# ranks stopped at frame 7 is resumed from its checkpoint by 3 ranks, and by one process: the same
+# bytes. --bind-to none: Open MPI otherwise pins each rank to one core, and oneTBB would then run 2
+# threads on it as 1.
 #   usage: mpi_identity.sh PERIFX MPIRUN WORKDIR
 set -euo pipefail
 perifx=$1 mpirun=$2 work=$3
 here=$(cd "$(dirname "$0")" && pwd)
-scene=$here/mpi_tear.json
+scene=$here/mpi_impact.json
 rm -rf "$work"
 mkdir -p "$work"
 
@@ -30,17 +32,21 @@ tag = head[head.index(b'Name="plastic_strain"'):]
 offset = int(tag[tag.index(b'offset="') + 8:].split(b'"')[0])
 size = struct.unpack_from("<Q", data, offset)[0]
 plastic = max(struct.unpack_from("<%dd" % (size // 8), data, offset + 8))
+# The ball's largest contact force over the frames (projectiles.csv: fx, fy, fz).
+rows = (run / "projectiles.csv").read_text().splitlines()[1:]
+ball = max(sum(float(v) ** 2 for v in row.split(",")[11:14]) ** 0.5 for row in rows)
 print(f"mpi_identity: one process: {summary['particles']} particles, {broken} of {summary['bonds']} bonds broken, "
-      f"first break at {summary['first_break_time']} s, largest plastic strain {plastic:.3g}")
-if broken == 0 or not plastic > 0:
-    sys.exit("mpi_identity: the reference run must break bonds and yield; the scene no longer tests that")
+      f"first break at {summary['first_break_time']} s, largest plastic strain {plastic:.3g}, "
+      f"largest ball force {ball:.3g} N")
+if broken == 0 or not plastic > 0 or not ball > 0:
+    sys.exit("mpi_identity: the reference run must break bonds, yield and be struck; the scene no longer tests that")
 EOF
 
 fail=0
 # compare LABEL DIR: every frame file of the one-process run against DIR's, byte for byte.
 compare() {
   local count=0 f name
-  for f in "$work"/one_process/particles.*; do
+  for f in "$work"/one_process/particles.* "$work"/one_process/projectiles.csv; do
     name=$(basename "$f")
     if ! cmp -s "$f" "$2/$name"; then
       echo "mpi_identity: $1: $name differs from one process"
@@ -48,7 +54,7 @@ compare() {
     fi
     count=$((count + 1))
   done
-  echo "mpi_identity: $1: $count frame files compared"
+  echo "mpi_identity: $1: $count files compared"
 }
 
 for spec in 1x1 2x1 3x1 4x1 2x2; do
@@ -76,4 +82,4 @@ for resumer in 3 1; do
   compare "2 ranks to frame 7, resumed by $resumer rank(s)" "$out"
 done
 if ((fail)); then exit 1; fi
-echo "mpi_identity: every frame file is byte-identical to one process"
+echo "mpi_identity: every frame file and projectiles.csv is byte-identical to one process"

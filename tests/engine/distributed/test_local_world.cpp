@@ -23,6 +23,7 @@ const std::filesystem::path kTear = std::filesystem::path(PERIFX_SOURCE_DIR) / "
 // The same bytes in a's owned slice [begin, begin + count) as in b's [first, first + count).
 template <class V>
 bool same_bits(const V& local, std::size_t begin, const V& full, std::size_t first, std::size_t count) {
+  if (local.empty() || full.empty()) return local.empty() && full.empty();  // an array the scene does not use
   return std::memcmp(local.data() + begin, full.data() + first, count * sizeof(local[0])) == 0;
 }
 
@@ -33,34 +34,61 @@ struct Rank {
   std::vector<SystemDecl> systems;
 };
 
-// Copies, for every ghost of rank r, what `copy(to_world, to_index, from_world, from_index)` moves.
+// Copies, for every bond ghost of rank r (and its contact ghosts, with `contact`), what
+// `copy(to_world, to_index, from_world, from_index)` moves.
 template <class Copy>
-void exchange(std::vector<Rank>& ranks, std::size_t r, Copy&& copy) {
+void exchange(std::vector<Rank>& ranks, std::size_t r, Copy&& copy, bool contact = false) {
   Rank& me = ranks[r];
-  for (const auto& in : me.layout.receives) {
-    const Rank& owner = ranks[static_cast<std::size_t>(in.rank)];
-    const distributed::HaloLink* out = nullptr;
-    for (const auto& link : owner.layout.sends)
-      if (link.rank == static_cast<int>(r)) out = &link;
-    REQUIRE(out != nullptr);
-    REQUIRE(out->local.size() == in.local.size());
-    for (std::size_t m = 0; m < in.local.size(); ++m) copy(*me.world, in.local[m], *owner.world, out->local[m]);
+  using Links = std::vector<distributed::HaloLink> distributed::LocalLayout::*;
+  const std::pair<Links, Links> stages[] = {{&distributed::LocalLayout::receives, &distributed::LocalLayout::sends},
+                                            {&distributed::LocalLayout::contact_receives,
+                                             &distributed::LocalLayout::contact_sends}};
+  for (const auto& [receives, sends] : stages) {
+    if (receives == &distributed::LocalLayout::contact_receives && !contact) break;
+    for (const auto& in : me.layout.*receives) {
+      const Rank& owner = ranks[static_cast<std::size_t>(in.rank)];
+      const distributed::HaloLink* out = nullptr;
+      for (const auto& link : owner.layout.*sends)
+        if (link.rank == static_cast<int>(r)) out = &link;
+      REQUIRE(out != nullptr);
+      REQUIRE(out->local.size() == in.local.size());
+      for (std::size_t m = 0; m < in.local.size(); ++m) copy(*me.world, in.local[m], *owner.world, out->local[m]);
+    }
   }
+}
+
+// A contact ghost refresh of every rank, in memory (what the MPI runtime does with two collectives).
+void refresh_contact_ghosts(std::vector<Rank>& ranks) {
+  std::vector<std::vector<std::uint64_t>> cells;
+  for (const auto& rank : ranks) cells.push_back(distributed::contact_cells(*rank.world, rank.layout));
+  for (auto& rank : ranks) distributed::find_contact_sends(*rank.world, rank.layout, cells);
+  std::vector<std::vector<std::pair<int, std::vector<char>>>> received(ranks.size());
+  for (std::size_t q = 0; q < ranks.size(); ++q)  // in sender order, as MPI_Alltoallv delivers
+    for (const auto& link : ranks[q].layout.contact_sends)
+      received[static_cast<std::size_t>(link.rank)].emplace_back(
+          static_cast<int>(q), distributed::pack_contact_ghosts(*ranks[q].world, link));
+  for (std::size_t r = 0; r < ranks.size(); ++r)
+    distributed::set_contact_ghosts(*ranks[r].world, ranks[r].layout, received[r]);
 }
 
 }  // namespace
 
-TEST_CASE("local worlds: stepped in lockstep with copied halos, every owned particle and bond matches one process") {
-  const scene::Scene sc = scene::load_scene_file(kTear);
+// Steps `scene` (particle contact on) in one process and as the local worlds of each rank count in
+// `counts`, and compares
+// every owned particle and bond. A negative count is the control: that many ranks without the θ halo
+// and without contact ghosts, which must differ. `cross_contacts`: some owned particle must touch a
+// contact ghost.
+static void lockstep_matches_one_process(const std::filesystem::path& scene_file, std::uint64_t steps,
+                                  std::initializer_list<int> counts, bool breaks, bool cross_contacts) {
+  scene::Scene sc = scene::load_scene_file(scene_file);
+  sc.contact.mode = scene::Contact::Mode::on;
   World one(sc);
   const World split_source(sc);
   const WorldState& full = split_source.state();
-  const std::uint64_t steps = 160;  // the first bond breaks at step 44 (first_break_time 2.2 ms)
   one.step(steps);
-  REQUIRE(one.alive_bond_count() < one.bond_count());
+  if (breaks) REQUIRE(one.alive_bond_count() < one.bond_count());
 
-  // 3 and 4 ranks; then 3 ranks without the dilatation halo, which must differ (the test can fail).
-  for (int count : {3, 4, -3}) {
+  for (int count : counts) {
     const bool control = count < 0;
     count = control ? -count : count;
     CAPTURE(count);
@@ -71,12 +99,15 @@ TEST_CASE("local worlds: stepped in lockstep with copied halos, every owned part
       Rank& rank = ranks[r];
       rank.layout = distributed::make_layout(full, domains, static_cast<int>(r));
       rank.world = distributed::make_local_world(full, rank.layout);
-      CHECK(rank.layout.ghost_count() > 0);
+      if (breaks) CHECK(rank.layout.ghost_count() > 0);  // the blocks may fall on separate ranks whole
       rank.halo.motion = [&ranks, r] {
-        exchange(ranks, r, [](WorldState& to, std::uint32_t i, const WorldState& from, std::uint32_t j) {
-          to.particles.position[i] = from.particles.position[j];
-          to.particles.velocity[i] = from.particles.velocity[j];
-        });
+        exchange(
+            ranks, r,
+            [](WorldState& to, std::uint32_t i, const WorldState& from, std::uint32_t j) {
+              to.particles.position[i] = from.particles.position[j];
+              to.particles.velocity[i] = from.particles.velocity[j];
+            },
+            true);
       };
       rank.halo.dilatation = [&ranks, r, control] {
         if (control) return;
@@ -114,15 +145,41 @@ TEST_CASE("local worlds: stepped in lockstep with copied halos, every owned part
       return total;
     }());
     // Lockstep: system s runs on every rank before system s + 1 runs on any, so a halo stage sees
-    // every owner's values of that stage.
+    // every owner's values of that stage. Contact ghosts are refreshed before the first step and
+    // whenever some rank finds them stale, as the runtime does.
+    REQUIRE(ranks[0].world->contact.enabled);
+    if (!control) refresh_contact_ghosts(ranks);
+    std::size_t refreshes = control ? 0 : 1, most_contact_ghosts = 0, touching_contact_ghosts = 0;
     for (std::uint64_t step = 0; step < steps; ++step) {
       for (std::size_t s = 0; s < ranks[0].systems.size(); ++s)
         for (auto& rank : ranks) rank.systems[s].run();
+      bool stale = false;
       for (auto& rank : ranks) {
         ++rank.world->clock.step;
         rank.world->clock.time = static_cast<double>(rank.world->clock.step) * rank.world->clock.dt;
+        stale = distributed::contact_ghosts_stale(*rank.world, rank.layout) || stale;
+        const auto& l = rank.layout;
+        const WorldState& w = *rank.world;
+        most_contact_ghosts = std::max<std::size_t>(most_contact_ghosts, w.particles.count() - l.base_count);
+        // Owned particles that a contact ghost pushes this step (the case only contact ghosts cover).
+        const auto& pr = w.contact.pairs;
+        for (std::uint32_t i = l.owned_begin; i < l.owned_begin + l.owned_count; ++i)
+          for (std::uint32_t q = pr.offsets[i]; q < pr.offsets[i + 1]; ++q)
+            if (const std::uint32_t j = pr.neighbor[q]; j >= l.base_count) {
+              const double dc = w.contact.distance_factor * 0.5 * (w.contact.size[i] + w.contact.size[j]);
+              const double reference = (w.particles.reference_position[j] - w.particles.reference_position[i]).norm();
+              touching_contact_ghosts += (w.particles.position[j] - w.particles.position[i]).norm() < std::min(dc, reference);
+            }
+      }
+      if (stale && !control) {
+        refresh_contact_ghosts(ranks);
+        ++refreshes;
       }
     }
+    MESSAGE("ranks " << count << ": " << refreshes << " contact ghost refreshes, up to " << most_contact_ghosts
+                     << " contact ghosts on a rank, " << touching_contact_ghosts << " owned-ghost contacts");
+    if (!control) CHECK(most_contact_ghosts > 0);
+    if (cross_contacts && !control) CHECK(touching_contact_ghosts > 0);
     const WorldState& ref = one.state();
     if (control) {
       bool all_same = true;
@@ -153,12 +210,25 @@ TEST_CASE("local worlds: stepped in lockstep with copied halos, every owned part
   }
 }
 
+TEST_CASE("local worlds: stepped in lockstep with copied halos, every owned particle and bond matches one process") {
+  // The tearing plate with contact on (the first bond breaks at step 44, 2.2 ms); 3 and 4 ranks, then
+  // 3 ranks without the dilatation halo.
+  lockstep_matches_one_process(kTear, 160, {3, 4, -3}, true, false);
+}
+
+TEST_CASE("local worlds: two blocks collide across ranks through contact ghosts, as in one process") {
+  // They touch at about step 50 and separate again; 2 and 3 ranks, then 2 ranks without contact ghosts
+  // (the blocks then pass through each other).
+  lockstep_matches_one_process(std::filesystem::path(PERIFX_SOURCE_DIR) / "tests/engine/distributed/contact_blocks.json",
+                               200, {2, 3, -2}, false, true);
+}
+
 TEST_CASE("local worlds: owned rows are the global rows, ghosts are exactly the far ends outside the range") {
   const World source(scene::load_scene_file(kTear));
   const WorldState& full = source.state();
   const auto domains = distributed::split_by_work(full, 3);
   for (int r = 0; r < 3; ++r) {
-    const auto layout = distributed::make_layout(full, domains, r);
+    auto layout = distributed::make_layout(full, domains, r);
     const auto w = distributed::make_local_world(full, layout);
     const auto& d = domains[static_cast<std::size_t>(r)];
     REQUIRE(w->particles.count() == layout.global_of.size());
