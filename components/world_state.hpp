@@ -72,6 +72,7 @@ struct StepSettings {
   std::vector<scene::Collider> colliders;            // kinematic colliders (systems/colliders.cpp)
   scene::Contact contact;                            // particle contact settings (systems/contact.cpp)
   std::vector<scene::Projectile> projectiles;        // initial projectiles (systems/projectiles.cpp)
+  scene::Distributed distributed;                    // re-balancing of distributed runs (engine/distributed/)
   int threads = 0;                                   // worker threads of the world's arena (0 = all)
   // The embedded mesh's vertices follow the particles every step (systems/mesh_vertices.cpp) when
   // the scene writes the split mesh (obj, surface_ply, tets_vtu) or can break.

@@ -458,6 +458,8 @@ RunSummary run_world(World& world, const RunOptions& options) {
   summary.bond_updates_per_second =
       step_wall > 0 ? double(bonds) * double(world.step_count() - session_step) / step_wall : 0.0;
   summary.threads = world.threads();
+  summary.ranks = world.ranks();
+  summary.rebalances = world.rebalances();
   summary.contact_list_builds = world.contact_counters().list_builds;
   summary.first_break_time = world.first_break_time();
   summary.contact_list_additions = world.contact_counters().list_additions;
@@ -483,6 +485,8 @@ RunSummary run_world(World& world, const RunOptions& options) {
   js["step_wall_seconds"] = summary.wall_seconds;
   js["output_wall_seconds"] = summary.output_seconds;
   js["bond_updates_per_second"] = summary.bond_updates_per_second;
+  js["ranks"] = summary.ranks;
+  js["rebalances"] = summary.rebalances;
   js["contact_list_builds"] = summary.contact_list_builds;
   js["contact_list_additions"] = summary.contact_list_additions;
   js["contact_list_partial_updates"] = summary.contact_list_partial_updates;

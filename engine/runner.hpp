@@ -51,6 +51,8 @@ struct RunSummary {
   double output_seconds = 0.0;
   double bond_updates_per_second = 0.0;  // directed bonds × steps / stepping wall time
   int threads = 0;
+  int ranks = 1;                             // MPI ranks of a distributed run (1 in one process)
+  std::uint64_t rebalances = 0;              // its re-splits as the work per rank drifted
   std::uint64_t contact_list_builds = 0;     // particle-contact pair list: full rebuilds (motion)
   std::uint64_t contact_list_additions = 0;  // and incremental additions of broken bonds' pairs
   std::uint64_t contact_list_partial_updates = 0;  // updates that searched only the moved particles

@@ -34,6 +34,7 @@ struct World::Impl {
   std::optional<double> stable_bound;  // World::stable_time_step_bound, once computed
   std::vector<setup::PhaseTime> setup_times;  // construction phases, then the stable-step estimate
   std::unique_ptr<distributed::Runtime> runtime;  // distribute(): this rank's local world and halos
+  std::uint64_t rebalances = 0;                  // re-splits of the distributed run so far
   std::size_t particles = 0, bonds = 0;  // the whole world's counts (other ranks free its arrays)
 
   ~Impl() { scheduler.reset(); }  // the graph's nodes reference the state; tear them down first
@@ -78,6 +79,19 @@ void World::step() {
     throw_instability();
   }
   if (check_broken && (impl_->runtime ? report.any_broken : any_bond_broken())) c.first_break_step = c.step;
+  if (report.rebalance) rebalance();
+}
+
+// A re-split of a distributed run (the runtime found the work per rank drifted): rank 0 gathers the
+// whole world, every rank receives it, and the new split's local worlds continue from it. The same
+// bits as without: a local world computes what one process does from whatever it holds.
+void World::rebalance() {
+  const std::vector<::perifx::distributed::Domain> domains = impl_->runtime->rebalanced_domains();
+  gather();
+  impl_->runtime->broadcast_world(*impl_->state);
+  impl_->runtime.reset();
+  split(&domains);
+  ++impl_->rebalances;
 }
 
 // One pass over the per-particle broken-bond counts (N_i − n_i, kept by the bond pass): run after
@@ -201,10 +215,14 @@ std::vector<DomainView> World::decompose(int ranks) const {
 
 void World::distribute() {
   if (impl_->runtime) throw std::logic_error("World::distribute: already distributed");
+  split(nullptr);
+}
+
+void World::split(const std::vector<::perifx::distributed::Domain>* domains) {
   impl_->particles = impl_->state->particles.count();
   impl_->bonds = impl_->state->bonds.count();
   try {
-    impl_->runtime = std::make_unique<distributed::Runtime>(*impl_->state, impl_->scheduler->threads());
+    impl_->runtime = std::make_unique<distributed::Runtime>(*impl_->state, impl_->scheduler->threads(), domains);
   } catch (const std::invalid_argument& e) {  // what the runtime cannot split yet, by JSON pointer
     throw std::invalid_argument(impl_->scene.source.string() + ": " + e.what());
   }
@@ -224,6 +242,7 @@ void World::gather() {
 
 bool World::broadcast(bool flag) { return impl_->runtime ? impl_->runtime->broadcast(flag) : flag; }
 int World::rank() const { return impl_->runtime ? impl_->runtime->rank() : 0; }
+std::uint64_t World::rebalances() const { return impl_->rebalances; }
 int World::ranks() const { return impl_->runtime ? impl_->runtime->ranks() : 1; }
 bool World::distributed() const { return impl_->runtime != nullptr; }
 

@@ -11,15 +11,14 @@
 
 namespace perifx::distributed {
 
-std::vector<Domain> split_by_work(const WorldState& w, int ranks) {
-  const std::size_t n = w.particles.count();
+namespace {
+
+// Contiguous ranges of equal work, with work_before(i) = Σ work of particles [0, i).
+template <class WorkBefore>
+std::vector<Domain> split(std::size_t n, int ranks, WorkBefore&& work_before) {
   if (ranks < 1 || static_cast<std::size_t>(ranks) > n)
     throw std::invalid_argument("expects 1 to the particle count (" + std::to_string(n) + "), got " +
                                 std::to_string(ranks));
-  const auto& offsets = w.bonds.offsets;
-  auto work_before = [&](std::size_t i) {  // Σ work of particles [0, i)
-    return std::uint64_t{offsets[i]} + kParticleWork * i;
-  };
   const std::uint64_t total = work_before(n);
   const auto r_count = static_cast<std::size_t>(ranks);
   std::vector<Domain> domains(r_count);
@@ -41,11 +40,26 @@ std::vector<Domain> split_by_work(const WorldState& w, int ranks) {
     Domain& d = domains[r];
     d.first = static_cast<std::uint32_t>(first);
     d.last = static_cast<std::uint32_t>(last);
-    d.bonds = std::uint64_t{offsets[last]} - offsets[first];
     d.work = work_before(last) - work_before(first);
     first = last;
   }
   return domains;
+}
+
+}  // namespace
+
+std::vector<Domain> split_by_work(const WorldState& w, int ranks) {
+  const auto& offsets = w.bonds.offsets;
+  auto domains = split(w.particles.count(), ranks,
+                       [&](std::size_t i) { return std::uint64_t{offsets[i]} + kParticleWork * i; });
+  for (Domain& d : domains) d.bonds = std::uint64_t{offsets[d.last]} - offsets[d.first];
+  return domains;
+}
+
+std::vector<Domain> split_by_work(const std::vector<std::uint32_t>& work, int ranks) {
+  std::vector<std::uint64_t> before(work.size() + 1, 0);
+  for (std::size_t i = 0; i < work.size(); ++i) before[i + 1] = before[i] + work[i];
+  return split(work.size(), ranks, [&](std::size_t i) { return before[i]; });
 }
 
 std::vector<std::vector<std::uint32_t>> bond_ghosts(const WorldState& w, const std::vector<Domain>& domains) {

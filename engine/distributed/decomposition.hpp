@@ -1,7 +1,7 @@
 // Domain decomposition for distributed runs (issue 17): how a world's particles split over N ranks and
 // what each rank must receive from the others every step: the plan `perifx info --ranks N` prints and
 // bench/README.md's projection is computed from. The MPI runtime (runtime.hpp) splits by
-// split_by_work and takes its ghosts from bond_ghosts (it does not distribute contact yet).
+// split_by_work and takes its bond ghosts from bond_ghosts (its contact ghosts: local_world.hpp).
 //
 // Domains. The particles are in Morton order (engine/geometry, one body after another), so a
 // contiguous index range is a compact piece of space. Rank r owns the range [first, last) whose
@@ -46,6 +46,9 @@ struct Domain {
 
 // Contiguous ranges of equal work; ranks ≥ 1 and ≤ particles (throws std::invalid_argument otherwise).
 std::vector<Domain> split_by_work(const WorldState& w, int ranks);
+// The same with the work of each particle given (a distributed run's re-balance: its alive bonds, its
+// contact candidates and kParticleWork); Domain::work is then that work, Domain::bonds is left 0.
+std::vector<Domain> split_by_work(const std::vector<std::uint32_t>& work, int ranks);
 // Every domain's bond ghosts (far ends of its owned bonds outside its range), ascending: the same
 // lists on every rank, from the full world.
 std::vector<std::vector<std::uint32_t>> bond_ghosts(const WorldState& w, const std::vector<Domain>& domains);

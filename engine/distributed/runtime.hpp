@@ -17,6 +17,7 @@
 #include <memory>
 
 #include "components/world_state.hpp"
+#include "distributed/decomposition.hpp"
 
 namespace perifx::distributed {
 
@@ -56,22 +57,31 @@ inline int launcher_ranks() {
 struct StepReport {
   std::uint64_t unstable_particle = ParticleState::kAllStable;  // lowest global index over all ranks
   bool any_broken = false;  // some owned particle on some rank has a broken bond (when asked)
+  bool rebalance = false;   // the work per rank drifted: re-split with Runtime::rebalanced_domains()
 };
 
 class Runtime {
  public:
-  // Splits `full` over the ranks of MPI_COMM_WORLD (decomposition.hpp) and builds this rank's local
-  // world and its step graph on `threads` threads. Collective. Throws std::invalid_argument for a
-  // world the runtime cannot split yet (the FEM solvers) and std::runtime_error without MPI.
-  Runtime(const WorldState& full, int threads);
+  // Splits `full` over the ranks of MPI_COMM_WORLD (by `domains`, or split_by_work's listed bonds) and
+  // builds this rank's local world and its step graph on `threads` threads. Collective. Throws
+  // std::invalid_argument for a world the runtime cannot split yet (the FEM solvers) and
+  // std::runtime_error without MPI.
+  Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains = nullptr);
   ~Runtime();
   Runtime(const Runtime&) = delete;
   Runtime& operator=(const Runtime&) = delete;
 
   int rank() const;
   int ranks() const;
-  // One step of the local world with its halos, then the clock. Collective.
+  // One step of the local world with its halos, then the clock. Collective. Every
+  // settings.distributed.rebalance_interval steps it measures each rank's work (alive bonds, contact
+  // candidates and kParticleWork per owned particle); when the busiest exceeds the mean by more than
+  // rebalance_drift and the equal-work split of the current work differs from the current one, the
+  // report asks for a re-split (World::step makes it: gather, broadcast_world, a new Runtime).
   StepReport step(bool check_broken);
+  const std::vector<Domain>& rebalanced_domains() const;
+  // Rank 0's `full` (its particle, bond and other arrays) on every rank, for a re-split. Collective.
+  void broadcast_world(WorldState& full);
   // Rank 0's `full` receives every rank's owned particle and bond state (other ranks pass theirs,
   // which is left as it is). Collective.
   void gather(WorldState& full);

@@ -200,6 +200,9 @@ class Converter {
     for (std::size_t i = 0; i < loads.size(); ++i) s.loads.push_back(load(loads[i], "/loads/" + std::to_string(i)));
     const Json& colliders = j["colliders"];
     for (std::size_t i = 0; i < colliders.size(); ++i) s.colliders.push_back(collider(colliders[i]));
+    const Json& dj = j["distributed"];
+    s.distributed.rebalance_drift = num(dj["rebalance_drift"]);
+    s.distributed.rebalance_interval = dj["rebalance_interval"].get<std::uint64_t>();
     const Json& ct = j["contact"];
     if (ct.contains("enabled")) s.contact.mode = ct["enabled"].get<bool>() ? Contact::Mode::on : Contact::Mode::off;
     s.contact.distance_factor = num(ct["distance_factor"]);

@@ -335,6 +335,18 @@ Key build_spec() {
                         "not); planar within 1e-6 of its size, non-degenerate.").at_least(3).req(),
   }).def(Json::array());
 
+  Key distributed = object("distributed", "distributed",
+      "Distributed runs (`mpirun -np N perifx run`; ignored in one process). Each rank owns a contiguous "
+      "piece of the particles' Morton order with an equal share of the work; as bonds break and pieces "
+      "fly apart the shares drift, and the pieces are re-split when the busiest rank's work exceeds the "
+      "mean by more than `rebalance_drift`. Work per particle: its alive bonds, its contact candidates "
+      "and 8 (the per-particle passes). A re-split changes no result bit.", {
+      number("rebalance_drift", "Largest tolerated excess of the busiest rank's work over the mean, as a "
+                                "fraction; 0 re-splits at every check where the split would change.")
+          .ge(0).def(0.2),
+      integer("rebalance_interval", "Steps between two checks of the work per rank.").ge(1).def(100),
+  }).def(Json::object());
+
   return object("", "scene", "A scene.", {
       text("name", "Scene name.").def_text("the scene file's name without extension"),
       text("description", "Free text for people; ignored by the engine.").empty_ok(),
@@ -368,6 +380,7 @@ Key build_spec() {
       contact,
       projectile,
       crack,
+      distributed,
       object("output", "output", "What is written, and where.", {
           text("directory", "Output folder, relative to the current working directory.").def("out"),
           strings("formats", {"vtu", "ply", "obj", "surface_ply", "surface_vtp", "tets_vtu", "cache", "gltf"},

@@ -23,6 +23,7 @@ void resolve_settings(const scene::Scene& scene, StepSettings& s) {
   s.colliders = scene.colliders;
   s.contact = scene.contact;
   s.projectiles = scene.projectiles;
+  s.distributed = scene.distributed;
   s.threads = scene.threads;
   s.mesh_output = scene.output.obj || scene.output.surface_ply || scene.output.tets_vtu;
 }

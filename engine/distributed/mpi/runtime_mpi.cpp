@@ -122,6 +122,46 @@ struct Runtime::Impl {
   std::vector<int> counts, displacements;  // per rank, for the collectives with a count per rank
   std::uint64_t contact_refreshes = 0;
   std::vector<double> projectile_mine;     // this rank's projectile contacts, while they are gathered
+  std::vector<Domain> rebalanced;          // the re-split a StepReport asked for
+
+  // This rank's owned particles' work now: alive bonds, contact candidates and kParticleWork each.
+  std::vector<std::uint32_t> owned_work() const {
+    const WorldState& w = *local;
+    const auto& b = w.bonds;
+    const auto& pr = w.contact.pairs;
+    const bool contact = w.contact.enabled && pr.valid;
+    std::vector<std::uint32_t> work(layout.owned_count);
+    for (std::uint32_t m = 0; m < layout.owned_count; ++m) {
+      const std::uint32_t i = layout.owned_begin + m;
+      std::uint32_t alive = 0;
+      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) alive += b.alive[k] != 0;
+      work[m] = alive + static_cast<std::uint32_t>(kParticleWork) + (contact ? pr.offsets[i + 1] - pr.offsets[i] : 0u);
+    }
+    return work;
+  }
+
+  // The re-balance check (Runtime::step). True when `rebalanced` holds a new split. Collective.
+  bool check_balance() {
+    const auto work = owned_work();
+    std::uint64_t mine = 0;
+    for (std::uint32_t x : work) mine += x;
+    std::vector<std::uint64_t> totals;
+    all_gather(std::vector<std::uint64_t>{mine}, totals, MPI_UINT64_T);
+    std::uint64_t sum = 0, most = 0;
+    for (std::uint64_t t : totals) {
+      sum += t;
+      most = std::max(most, t);
+    }
+    // most > (1 + drift) · mean, in doubles from integers: the same decision on every rank.
+    const double mean = static_cast<double>(sum) / static_cast<double>(totals.size());
+    if (!(static_cast<double>(most) > (1.0 + local->settings.distributed.rebalance_drift) * mean)) return false;
+    std::vector<std::uint32_t> all;
+    all_gather(work, all, MPI_UINT32_T);
+    rebalanced = split_by_work(all, layout.ranks);
+    for (std::size_t r = 0; r < rebalanced.size(); ++r)
+      if (rebalanced[r].first != layout.domains[r].first || rebalanced[r].last != layout.domains[r].last) return true;
+    return false;  // the equal-work split is the current one
+  }
 
   // One halo stage over (sends, receives): `width` doubles per particle, packed by `pack`, unpacked
   // by `unpack`.
@@ -222,7 +262,8 @@ struct Runtime::Impl {
   }
 };
 
-Runtime::Runtime(const WorldState& full, int threads) : impl_(std::make_unique<Impl>()) {
+Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains)
+    : impl_(std::make_unique<Impl>()) {
   int started = 0, rank = 0, ranks = 1;
   MPI_Initialized(&started);
   if (!started) throw std::runtime_error("the distributed runtime needs MPI started (run under mpirun)");
@@ -232,7 +273,10 @@ Runtime::Runtime(const WorldState& full, int threads) : impl_(std::make_unique<I
     throw std::invalid_argument("/solver: the FEM solvers are not distributed (expected \"peridynamics\"): run "
                                 "this scene in one process");
   Impl& m = *impl_;
-  m.layout = make_layout(full, split_by_work(full, ranks), rank);
+  if (domains && domains->size() != static_cast<std::size_t>(ranks))
+    throw std::logic_error("Runtime: a split for " + std::to_string(domains->size()) + " ranks, the job has " +
+                           std::to_string(ranks));
+  m.layout = make_layout(full, domains ? *domains : split_by_work(full, ranks), rank);
   m.local = make_local_world(full, m.layout);
   for (const auto& link : m.layout.sends) m.send_buffer.emplace_back(link.local.size());
   for (const auto& link : m.layout.receives) m.receive_buffer.emplace_back(link.local.size());
@@ -312,9 +356,35 @@ StepReport Runtime::step(bool check_broken) {
   if (w.contact.enabled && contact_ghosts_stale(w, m.layout)) mine[2] = 0;
   std::uint64_t all[3];
   check(MPI_Allreduce(mine, all, 3, MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD), "allreduce");
-  // Not after a blow-up: the run stops, and its positions may not be finite.
-  if (all[2] == 0 && all[0] == ParticleState::kAllStable) m.refresh_contact_ghosts();
-  return {all[0], all[1] == 0};
+  StepReport report{all[0], all[1] == 0, false};
+  if (all[0] != ParticleState::kAllStable) return report;  // the run stops; positions may not be finite
+  const std::uint64_t interval = w.settings.distributed.rebalance_interval;
+  if (m.layout.ranks > 1 && interval > 0 && c.step % interval == 0 && m.check_balance()) {
+    report.rebalance = true;  // World::step re-splits; contact ghosts come with the new local worlds
+    return report;
+  }
+  if (all[2] == 0) m.refresh_contact_ghosts();
+  return report;
+}
+
+const std::vector<Domain>& Runtime::rebalanced_domains() const { return impl_->rebalanced; }
+
+void Runtime::broadcast_world(WorldState& full) {
+  const int rank = impl_->layout.rank;
+  for_each_array(full, [&](ArrayKind kind, const char*, auto& array) {
+    if (kind == ArrayKind::mesh || kind == ArrayKind::contact) return;  // not read by a split
+    std::uint64_t count = array.size();
+    check(MPI_Bcast(&count, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD), "broadcast");
+    if (rank != 0) array.resize(count);
+    auto* bytes = reinterpret_cast<char*>(array.data());
+    const std::size_t total = count * sizeof(array[0]);
+    std::size_t at = 0;
+    do {  // in pieces of at most kChunk bytes (MPI counts are int)
+      const int n = static_cast<int>(std::min(kChunk, total - at));
+      check(MPI_Bcast(bytes + at, n, MPI_BYTE, 0, MPI_COMM_WORLD), "broadcast");
+      at += static_cast<std::size_t>(n);
+    } while (at < total);
+  });
 }
 
 bool Runtime::broadcast(bool flag) {

@@ -211,6 +211,12 @@ struct Projectile {
   double friction = 0.0;               // Coulomb coefficient against particles
 };
 
+// Distributed runs (mpirun; engine/distributed/): when the ranks' shares of the work are re-split.
+struct Distributed {
+  double rebalance_drift = 0.2;        // re-split when the busiest rank's work exceeds the mean by this
+  std::uint64_t rebalance_interval = 100;  // steps between two checks
+};
+
 struct Time {
   double dt = 1e-4;                    // s
   double duration = 1.0;               // s
@@ -259,6 +265,7 @@ struct Scene {
   Contact contact;
   std::vector<Projectile> projectiles;
   std::vector<Crack> cracks;
+  Distributed distributed;
   Output output;
 };
 

@@ -29,6 +29,9 @@
 namespace perifx {
 
 struct WorldState;
+namespace distributed {
+struct Domain;  // engine/distributed/decomposition.hpp (private)
+}
 class Scheduler;
 
 // Bytes held by the world's arrays (their capacities), by kind.
@@ -150,6 +153,9 @@ class World {
   int rank() const;                 // 0 in one process
   int ranks() const;                // 1 in one process (and before distribute())
   bool distributed() const;
+  // Re-splits so far: step() re-splits a distributed world when the work per rank drifts (the scene's
+  // "distributed" settings), which changes no result bit.
+  std::uint64_t rebalances() const;
   Diagnostics diagnostics() const;
   std::string schedule() const;    // the task graph, one system per line
   // Per-system wall time of the steps taken while profiling is on (off by default; costs two clock
@@ -198,6 +204,8 @@ class World {
 
  private:
   [[noreturn]] void throw_instability() const;
+  void split(const std::vector<::perifx::distributed::Domain>* domains);  // distribute() by `domains` (null: equal bonds)
+  void rebalance();                                              // step(): the runtime's re-split
   bool any_bond_broken() const;  // any particle has a broken bond now (step(): the first break)
   struct Impl;
   std::unique_ptr<Impl> impl_;

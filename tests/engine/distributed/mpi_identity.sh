@@ -4,7 +4,8 @@
 # velocity condition, gravity and a surface traction) in one process, then under mpirun at 1, 2, 3 and
 # 4 ranks of 1 thread and at 2 ranks of 2 threads, and compares every frame file (particles.NNNN.vtu
 # and .ply, particles.pvd) and projectiles.csv byte for byte. It first checks that the reference run
-# yields, breaks bonds and that the ball strikes, so the comparison covers all three. Then a run of 2
+# yields, breaks bonds and that the ball strikes, so the comparison covers all three. A run of 3 ranks
+# re-splits its work every 20 steps (rebalance_drift 0). Then a run of 2
 # ranks stopped at frame 7 is resumed from its checkpoint by 3 ranks, and by one process: the same
 # bytes. --bind-to none: Open MPI otherwise pins each rank to one core, and oneTBB would then run 2
 # threads on it as 1.
@@ -63,6 +64,22 @@ for spec in 1x1 2x1 3x1 4x1 2x2; do
   "$mpirun" --allow-run-as-root --oversubscribe --bind-to none -np "$ranks" "$perifx" run "$scene" --threads "$threads" --quiet --out "$out"
   compare "$ranks ranks x $threads threads" "$out"
 done
+# Re-balancing: 3 ranks re-split whenever the equal-work split of the current work (alive bonds,
+# contact candidates) differs from theirs, checked every 20 steps.
+python3 - "$scene" "$work/rebalance.json" <<'EOF'
+import json, sys
+scene = json.load(open(sys.argv[1]))
+scene["distributed"] = {"rebalance_drift": 0, "rebalance_interval": 20}
+json.dump(scene, open(sys.argv[2], "w"))
+EOF
+out=$work/rebalanced
+"$mpirun" --allow-run-as-root --oversubscribe --bind-to none -np 3 "$perifx" run "$work/rebalance.json" --threads 1 --quiet --out "$out"
+rebalances=$(python3 -c "import json, sys; print(json.load(open(sys.argv[1]))['rebalances'])" "$out/summary.json")
+if ((rebalances == 0)); then
+  echo "mpi_identity: the re-balancing run never re-split"
+  fail=1
+fi
+compare "3 ranks re-split $rebalances times" "$out"
 # Resume: 2 ranks stop at frame 7 (checkpoint), then 3 ranks, and one process, continue to the end.
 for resumer in 3 1; do
   out=$work/resumed_by_$resumer
