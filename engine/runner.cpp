@@ -211,17 +211,9 @@ RunSummary run_world(World& world, const RunOptions& options) {
   io::PvdSeries tets_pvd(summary.output_directory / "tets.pvd");
   bool mesh_output = sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || sc.output.tets_vtu;
   bool animation = sc.output.cache || sc.output.gltf;
-  // A distributed run steps no embedded mesh (engine/distributed/local_world.hpp): it writes the
-  // particle frames only, and refuses surface formats a scene asks for by name.
+  // A distributed run's rank 0 holds the embedded mesh and splits it at each gather (runtime.hpp).
   const bool distributed = world.distributed();
-  if (distributed) {
-    if ((mesh_output || animation || sc.output.dust_points) && !sc.output.surfaces_by_default)
-      throw std::invalid_argument("output formats obj/surface_ply/surface_vtp/tets_vtu/cache/gltf/dust are not "
-                                  "written by distributed runs yet (the split mesh is not distributed): run this "
-                                  "scene in one process, or ask for vtu/ply particles only");
-    mesh_output = animation = false;
-  }
-  const bool has_mesh = world.has_embedded_mesh() && !distributed;
+  const bool has_mesh = world.has_embedded_mesh();
   // Surfaces the scene did not ask for (the default) are left out of runs without a split mesh (FEM).
   if (mesh_output && !has_mesh && sc.output.surfaces_by_default) mesh_output = false;
   if (mesh_output && !has_mesh)
@@ -245,15 +237,11 @@ RunSummary run_world(World& world, const RunOptions& options) {
   const fs::path checkpoint = dir / "checkpoint.bin";
   std::uint64_t start_frame = 0, first_step = world.step_count();
   std::string projectile_csv;  // projectiles.csv so far
-  const auto existing = run_files(dir);
+  // Rank 0 alone judges the folder: the others would see the files it begins writing (and a refusal
+  // on rank 0 stops the whole job anyway).
+  const auto existing = lead ? run_files(dir) : std::vector<fs::path>{};
   if (options.existing == ExistingRun::resume && fs::exists(checkpoint)) {
     const auto note = nlohmann::json::parse(world.load_checkpoint(checkpoint));
-    // A distributed run's checkpoint holds its particles and bonds but not the split mesh it never
-    // stepped: continuing it in one process is fine unless the run writes that mesh.
-    if (!distributed && note.value("distributed", false) && (mesh_output || animation))
-      throw std::invalid_argument("cannot resume: the checkpoint in '" + dir.string() +
-                                  "' was written by a distributed run, which does not step the split mesh this "
-                                  "scene's surface outputs need; resume it under mpirun, or --overwrite");
     start_frame = note.at("frame").get<std::uint64_t>();
     if (start_frame > frames)
       throw std::invalid_argument("cannot resume: the checkpoint in '" + dir.string() + "' is at frame " +
@@ -264,7 +252,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
     surface_pvd.restore(note.at("surface_pvd").get<PvdEntries>());
     tets_pvd.restore(note.at("tets_pvd").get<PvdEntries>());
     projectile_csv = note.at("projectile_csv").get<std::string>();
-    if (animation) {
+    if (animation && lead) {  // rank 0 keeps the history (and the mesh it is trimmed against)
       // Written just before the checkpoint, so it reaches the checkpoint's frame (or one later).
       history = io::read_animation_history(dir / "animation.bin");
       try {

@@ -35,6 +35,7 @@ struct World::Impl {
   std::vector<setup::PhaseTime> setup_times;  // construction phases, then the stable-step estimate
   std::unique_ptr<distributed::Runtime> runtime;  // distribute(): this rank's local world and halos
   std::uint64_t rebalances = 0;                  // re-splits of the distributed run so far
+  bool embedded_mesh = false;                    // a distributed world had an embedded mesh when split
   std::size_t particles = 0, bonds = 0;  // the whole world's counts (other ranks free its arrays)
 
   ~Impl() { scheduler.reset(); }  // the graph's nodes reference the state; tear them down first
@@ -219,6 +220,8 @@ void World::distribute() {
 }
 
 void World::split(const std::vector<::perifx::distributed::Domain>* domains) {
+  // Ranks other than 0 release their mesh below; whether there is one stays everybody's answer.
+  impl_->embedded_mesh = impl_->embedded_mesh || !impl_->state->embedded.tets.empty();
   impl_->particles = impl_->state->particles.count();
   impl_->bonds = impl_->state->bonds.count();
   try {
@@ -353,7 +356,7 @@ ContactCounters World::contact_counters() const {
   return {pairs.builds, pairs.additions, pairs.partial_updates, pairs.searched};
 }
 
-bool World::has_embedded_mesh() const { return !impl_->state->embedded.tets.empty(); }
+bool World::has_embedded_mesh() const { return impl_->embedded_mesh || !impl_->state->embedded.tets.empty(); }
 
 TetMeshView World::tet_mesh() const {
   WorldState& w = *impl_->state;

@@ -151,7 +151,8 @@ void init_held_rotations(WorldState& w) {
 
 void update_held_rotations(WorldState& w) {
   EmbeddedMesh& e = w.embedded;
-  if (e.motion != VertexMotion::deformation || e.tets.empty()) return;
+  // A distributed run's local world has no tets but steps the held rotations of its particles.
+  if (e.motion != VertexMotion::deformation || (e.tets.empty() && e.held_deformation.empty())) return;
   const std::size_t np = w.particles.count();
   if (e.held_deformation.size() != np) init_held_rotations(w);
   const auto& broken = w.state.broken_bonds;
@@ -161,7 +162,9 @@ void update_held_rotations(WorldState& w) {
   parallel_for_each(np, [&](std::size_t p) {
     if (!e.held_tracked[p] && !(counted && broken[p] > 0)) return;  // intact, family fits
     if (counted && broken[p] == e.held_broken_seen[p]) {  // alive set unchanged since the last evaluation
-      if (e.held_fits[p] && p % kRefreshSteps != phase) return;  // S_p is only R_old: refreshed in turn
+      // S_p is only R_old: refreshed in turn, by whole-world index (a distributed run's local index differs)
+      const std::size_t turn = w.global_index.empty() ? p : w.global_index[p];
+      if (e.held_fits[p] && turn % kRefreshSteps != phase) return;
       if (!e.held_fits[p] && broken[p] >= initial[p]) return;     // no alive bond: keeps its rotation
     }
     step_particle(w, p);

@@ -7,7 +7,7 @@
 //   → (fracture_threshold) → (crack_faces → mesh_split) → (mesh_rotations → mesh_vertices)
 //                                                                               (embedded mesh, §5.2)
 // Distributed runs add the halo exchanges (halo_motion after colliders, halo_dilatation after
-// dilatation, halo_threshold after fracture_threshold) and leave the embedded-mesh systems out.
+// dilatation, halo_threshold after fracture_threshold) and keep only mesh_rotations of the embedded mesh.
 // FEM mode replaces dilatation + bond_pass by fem_force. The scheduler derives the actual graph from
 // each system's declared reads and writes; this order only settles who comes first on shared data.
 #include "pipeline.hpp"
@@ -57,6 +57,9 @@ std::vector<SystemDecl> step_pipeline(WorldState& w, PipelineOptions options) {
     s.push_back({"halo_threshold", {Component::fracture_threshold}, {Component::fracture_threshold}, halo->threshold});
   // Embedded mesh (§5.2): crack faces and vertex splitting when bonds can break; vertex motion when
   // anything uses the mesh surface (fracture, or surface/tet output requested).
+  // A distributed run's local world steps only the held rotations (per particle, from its family);
+  // rank 0 replays the crack faces and vertex splits (engine/distributed/runtime.hpp).
+  if (!fem && !options.embedded_mesh && !w.embedded.held_deformation.empty()) s.push_back(mesh_rotation_system(w));
   if (!fem && options.embedded_mesh) {
     if (w.any_fracture) s.push_back(crack_face_system(w));
     if (w.any_fracture) s.push_back(mesh_split_system(w));

@@ -571,13 +571,19 @@ int main(int argc, char** argv) {
                    "run the whole scene into the same files\n";
       return kUsage;
     }
-    std::ostringstream muted;
+    std::ostringstream muted_out, muted_err;
     std::streambuf* const out = std::cout.rdbuf();
     std::streambuf* const err = std::cerr.rdbuf();
-    if (mpi.rank() != 0) std::cout.rdbuf(muted.rdbuf()), std::cerr.rdbuf(muted.rdbuf());
+    if (mpi.rank() != 0) std::cout.rdbuf(muted_out.rdbuf()), std::cerr.rdbuf(muted_err.rdbuf());
     const int code = cli_main(argc, argv, mpi);
     std::cout.rdbuf(out), std::cerr.rdbuf(err);
     if (code != kOk && code != kInterrupted && mpi.ranks() > 1) {
+      // Another rank's error can be its own (rank 0 may not share it): say which rank it is. An error
+      // every rank meets (a bad scene) is then printed once per rank.
+      if (mpi.rank() != 0) {
+        std::istringstream lines(muted_err.str());
+        for (std::string line; std::getline(lines, line);) std::cerr << "[rank " << mpi.rank() << "] " << line << "\n";
+      }
       // mpirun forwards a rank's output through a pipe that MPI_Abort can cut before it is read: give
       // the error line half a second to reach the terminal (it was lost otherwise, now and then).
       std::cout.flush(), std::cerr.flush();

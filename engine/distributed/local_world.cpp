@@ -118,6 +118,21 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
     array.resize(n);
     for (std::size_t l = 0; l < n; ++l) array[l] = src[order[l]];
   });
+  // The embedded mesh's per-particle held rotations (systems/mesh_rotations.cpp) are stepped here, on
+  // the owned particles' families; rank 0's full world keeps the mesh itself (runtime.hpp).
+  const EmbeddedMesh& fe = full.embedded;
+  EmbeddedMesh& e = w->embedded;
+  e.motion = fe.motion;
+  auto per_particle = [&](const auto& src, auto& dst) {
+    if (src.size() != n_full) return;
+    dst.resize(n);
+    for (std::size_t l = 0; l < n; ++l) dst[l] = src[order[l]];
+  };
+  per_particle(fe.held_deformation, e.held_deformation);
+  per_particle(fe.held_tracked, e.held_tracked);
+  per_particle(fe.held_fits, e.held_fits);
+  per_particle(fe.held_broken_seen, e.held_broken_seen);
+
   // Ghosts: integration and colliders leave them alone (the halo brings their motion).
   for (std::size_t l = 0; l < n; ++l)
     if (l < shift || l >= shift + layout.owned_count) w->particles.flags[l] |= kPrescribed;
@@ -306,6 +321,13 @@ void set_contact_ghosts(WorldState& local, LocalLayout& layout,
     layout.contact_receives.push_back(std::move(in));
   }
   local.global_index = layout.global_of;
+  EmbeddedMesh& e = local.embedded;  // held rotations: contact ghosts' are never read
+  if (!e.held_deformation.empty()) {
+    e.held_deformation.resize(n, Mat3::Identity());
+    e.held_tracked.resize(n, 1);
+    e.held_fits.resize(n, 0);
+    e.held_broken_seen.resize(n, 0);
+  }
   systems::resize_contact(local);
   systems::resize_projectiles(local);
 }

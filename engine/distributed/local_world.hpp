@@ -37,7 +37,8 @@
 // Projectiles are replicated: every rank steps the same spheres; the forces they receive are summed
 // over every rank's touching particles in global order (projectile_contact's gather, runtime).
 //
-// What a local world does not hold (yet): the embedded tet mesh.
+// The embedded tet mesh stays in rank 0's full world (runtime.hpp replays its splits); a local world
+// holds only the mesh's per-particle held rotations, which mesh_rotations steps from the families.
 #pragma once
 #include <cstdint>
 #include <memory>

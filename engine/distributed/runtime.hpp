@@ -9,7 +9,11 @@
 // contacts are concatenated in rank order, which is particle order.
 //
 // Output: gather() copies every rank's owned particle and bond data into rank 0's full world, in
-// particle order, so rank 0 writes the same files as one process.
+// particle order, so rank 0 writes the same files as one process. The embedded mesh lives there too:
+// every rank records at which step each of its bonds broke, and gather() first replays, on rank 0, the
+// crack faces and vertex splits of every step since the last gather (systems/crack_faces.cpp and
+// mesh_split.cpp read only the bond states and the mesh), then gathers the held rotations the local
+// worlds stepped. The surfaces are then those of one process, bit for bit.
 #pragma once
 #include <algorithm>
 #include <cstdint>

@@ -10,6 +10,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <utility>
 
 #include "distributed/local_world.hpp"
@@ -17,6 +18,7 @@
 #include "scheduler.hpp"
 #include "systems/bond_rules.hpp"
 #include "systems/pipeline.hpp"
+#include "systems/systems.hpp"
 
 namespace perifx::distributed {
 namespace {
@@ -123,6 +125,63 @@ struct Runtime::Impl {
   std::uint64_t contact_refreshes = 0;
   std::vector<double> projectile_mine;     // this rank's projectile contacts, while they are gathered
   std::vector<Domain> rebalanced;          // the re-split a StepReport asked for
+  // The embedded mesh (rank 0's full world) is split by replaying, at each gather, every step's breaks:
+  // each rank records which of its owned bonds broke at which step.
+  bool track_breaks = false;
+  std::vector<std::uint8_t> alive_seen;    // per owned bond: alive as of the last record
+  std::vector<std::uint32_t> broken_seen;  // per owned particle: broken-bond count as of then
+  std::vector<std::uint64_t> break_events; // (step, global bond index) pairs since the last gather
+  std::uint64_t replayed_step = 0;         // rank 0: its full world's mesh is split up to this step
+
+  // Appends this step's breaks of owned bonds (only particles whose broken-bond count changed are scanned).
+  void record_breaks(std::uint64_t step) {
+    const WorldState& w = *local;
+    const auto& b = w.bonds;
+    for (std::uint32_t m = 0; m < layout.owned_count; ++m) {
+      const std::uint32_t i = layout.owned_begin + m;
+      if (w.state.broken_bonds[i] == broken_seen[m]) continue;
+      broken_seen[m] = w.state.broken_bonds[i];
+      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k)
+        if (alive_seen[k] && !b.alive[k]) {
+          alive_seen[k] = 0;
+          break_events.push_back(step);
+          break_events.push_back(layout.bond_begin + k);
+        }
+    }
+  }
+
+  // Rank 0: every rank's break events, then the crack faces and vertex splits of every step since the
+  // last replay, on the full world's bond states as they were after each step (the systems read only
+  // those and the mesh: systems/crack_faces.cpp, mesh_split.cpp). Collective.
+  void replay_mesh(WorldState& full) {
+    std::vector<std::uint64_t> all;
+    const int count = int_count(break_events.size(), "break event");
+    check(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD), "gather");
+    std::size_t total = 0;
+    if (layout.rank == 0)
+      for (std::size_t q = 0; q < counts.size(); ++q) {
+        displacements[q] = int_count(total, "break event");
+        total += static_cast<std::size_t>(counts[q]);
+      }
+    all.resize(total);
+    check(MPI_Gatherv(break_events.data(), count, MPI_UINT64_T, all.data(), counts.data(), displacements.data(),
+                      MPI_UINT64_T, 0, MPI_COMM_WORLD),
+          "gatherv");
+    break_events.clear();
+    const std::uint64_t now = local->clock.step;
+    if (layout.rank != 0) return;
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> events(total / 2);
+    for (std::size_t q = 0; q < events.size(); ++q) events[q] = {all[2 * q], all[2 * q + 1]};
+    std::sort(events.begin(), events.end());
+    SystemDecl crack = systems::crack_face_system(full), split = systems::mesh_split_system(full);
+    std::size_t next = 0;
+    for (std::uint64_t s = replayed_step + 1; s <= now; ++s) {
+      for (; next < events.size() && events[next].first == s; ++next) full.bonds.alive[events[next].second] = 0;
+      crack.run();
+      split.run();
+    }
+    replayed_step = now;
+  }
 
   // This rank's owned particles' work now: alive bonds, contact candidates and kParticleWork each.
   std::vector<std::uint32_t> owned_work() const {
@@ -287,6 +346,22 @@ Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>*
 
   WorldState& w = *m.local;
   if (w.contact.enabled) m.refresh_contact_ghosts();
+  // Rank 0's word: other ranks may have released their copy of the mesh.
+  m.track_breaks = full.any_fracture && !full.embedded.tets.empty();
+  {
+    int track = m.track_breaks ? 1 : 0;
+    check(MPI_Bcast(&track, 1, MPI_INT, 0, MPI_COMM_WORLD), "broadcast");
+    m.track_breaks = track != 0;
+  }
+  if (m.track_breaks) {
+    if (full.embedded.motion != VertexMotion::deformation)
+      throw std::invalid_argument("the embedded mesh's vertex motion is not 'deformation' (a test option): "
+                                  "a distributed run cannot step it; run this scene in one process");
+    m.alive_seen = w.bonds.alive;
+    m.broken_seen.assign(w.state.broken_bonds.begin() + m.layout.owned_begin,
+                         w.state.broken_bonds.begin() + m.layout.owned_begin + m.layout.owned_count);
+    m.replayed_step = full.clock.step;
+  }
   m.halo.motion = [&m, &w] {
     auto& y = w.particles.position;
     auto& v = w.particles.velocity;
@@ -344,6 +419,7 @@ StepReport Runtime::step(bool check_broken) {
   auto& c = w.clock;
   ++c.step;
   c.time = static_cast<double>(c.step) * c.dt;
+  if (m.track_breaks) m.record_breaks(c.step);
   // [0] lowest unstable global index, [1] 0 when some owned particle has a broken bond, [2] 0 when
   // the contact ghosts must be refreshed before the next step: all three minima.
   std::uint64_t mine[3] = {ParticleState::kAllStable, 1, 1};
@@ -371,8 +447,10 @@ const std::vector<Domain>& Runtime::rebalanced_domains() const { return impl_->r
 
 void Runtime::broadcast_world(WorldState& full) {
   const int rank = impl_->layout.rank;
-  for_each_array(full, [&](ArrayKind kind, const char*, auto& array) {
-    if (kind == ArrayKind::mesh || kind == ArrayKind::contact) return;  // not read by a split
+  for_each_array(full, [&](ArrayKind kind, const char* name, auto& array) {
+    // Not read by a split: the mesh (rank 0's alone) but for the per-particle held rotations, and contact.
+    const bool held = std::string_view(name).rfind("embedded.held_", 0) == 0;
+    if ((kind == ArrayKind::mesh && !held) || kind == ArrayKind::contact) return;
     std::uint64_t count = array.size();
     check(MPI_Bcast(&count, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD), "broadcast");
     if (rank != 0) array.resize(count);
@@ -397,6 +475,7 @@ void Runtime::gather(WorldState& full) {
   Impl& m = *impl_;
   const WorldState& w = *m.local;
   const auto& layout = m.layout;
+  if (m.track_breaks) m.replay_mesh(full);  // before the bond states below overwrite the replayed ones
   full.clock = w.clock;
   full.projectiles.bodies = w.projectiles.bodies;  // the same on every rank
   // summary.json's contact list counters: this rank's (rank 0's, where they are written).
@@ -439,6 +518,18 @@ void Runtime::gather(WorldState& full) {
     if (!mine.empty())
       gather_slices(mine.data(), mine.size(), target.data(), layout.rank, layout.ranks, kTagGather, bonds_of);
   };
+  // The held rotations of the embedded mesh (per particle, stepped by the local worlds).
+  const EmbeddedMesh& e = w.embedded;
+  EmbeddedMesh& fe = full.embedded;
+  auto gather_held = [&](const auto& mine, auto& target) {
+    if (!mine.empty())
+      gather_slices(mine.data() + layout.owned_begin, layout.owned_count, target.data(), layout.rank, layout.ranks,
+                    kTagGather, particles_of);
+  };
+  gather_held(e.held_deformation, fe.held_deformation);
+  gather_held(e.held_tracked, fe.held_tracked);
+  gather_held(e.held_fits, fe.held_fits);
+  gather_held(e.held_broken_seen, fe.held_broken_seen);
   gather_bonds(w.bonds.alive, full.bonds.alive);
   gather_bonds(w.bonds.plastic_extension, full.bonds.plastic_extension);
   gather_bonds(w.bonds.plastic_extension_mirror, full.bonds.plastic_extension_mirror);
