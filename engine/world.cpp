@@ -36,6 +36,8 @@ struct World::Impl {
   std::unique_ptr<distributed::Runtime> runtime;  // distribute(): this rank's local world and halos
   std::uint64_t rebalances = 0;                  // re-splits of the distributed run so far
   bool embedded_mesh = false;                    // a distributed world had an embedded mesh when split
+  bool profiling = false;                        // set_profiling's last word
+  std::vector<SystemTime> earlier_times;         // profile of the step graphs before the last re-split
   std::size_t particles = 0, bonds = 0;  // the whole world's counts (other ranks free its arrays)
 
   ~Impl() { scheduler.reset(); }  // the graph's nodes reference the state; tear them down first
@@ -90,8 +92,10 @@ void World::rebalance() {
   const std::vector<::perifx::distributed::Domain> domains = impl_->runtime->rebalanced_domains();
   gather();
   impl_->runtime->broadcast_world(*impl_->state);
+  impl_->earlier_times = system_times();
   impl_->runtime.reset();
   split(&domains);
+  if (impl_->profiling) impl_->runtime->scheduler().set_profiling(true);
   ++impl_->rebalances;
 }
 
@@ -288,11 +292,22 @@ Diagnostics World::diagnostics() const {
 
 std::string World::schedule() const { return impl_->scheduler->describe(); }
 
-void World::set_profiling(bool on) { impl_->scheduler->set_profiling(on); }
+// A distributed world profiles this rank's step graph (its local world and halo exchanges); a re-split
+// builds a new graph, whose times add to the earlier ones'.
+void World::set_profiling(bool on) {
+  impl_->profiling = on;
+  impl_->scheduler->set_profiling(on);
+  if (impl_->runtime) impl_->runtime->scheduler().set_profiling(on);
+}
 
 std::vector<SystemTime> World::system_times() const {
-  std::vector<SystemTime> out;
-  for (const auto& t : impl_->scheduler->profile()) out.push_back({t.name, t.seconds, t.runs});
+  std::vector<SystemTime> out = impl_->earlier_times;
+  const Scheduler& s = impl_->runtime ? impl_->runtime->scheduler() : *impl_->scheduler;
+  for (const auto& t : s.profile()) {
+    auto at = std::find_if(out.begin(), out.end(), [&](const SystemTime& e) { return e.name == t.name; });
+    if (at == out.end()) out.push_back({t.name, t.seconds, t.runs});
+    else at->seconds += t.seconds, at->runs += t.runs;
+  }
   return out;
 }
 

@@ -22,6 +22,7 @@
 
 #include "components/world_state.hpp"
 #include "distributed/decomposition.hpp"
+#include "scheduler.hpp"
 
 namespace perifx::distributed {
 
@@ -86,6 +87,8 @@ class Runtime {
   const std::vector<Domain>& rebalanced_domains() const;
   // Rank 0's `full` (its particle, bond and other arrays) on every rank, for a re-split. Collective.
   void broadcast_world(WorldState& full);
+  // This rank's step graph (its local world's systems and the halo exchanges): `perifx run --profile`.
+  Scheduler& scheduler();
   // Rank 0's `full` receives every rank's owned particle and bond state (other ranks pass theirs,
   // which is left as it is). Collective.
   void gather(WorldState& full);

@@ -444,6 +444,7 @@ StepReport Runtime::step(bool check_broken) {
 }
 
 const std::vector<Domain>& Runtime::rebalanced_domains() const { return impl_->rebalanced; }
+Scheduler& Runtime::scheduler() { return *impl_->scheduler; }
 
 void Runtime::broadcast_world(WorldState& full) {
   const int rank = impl_->layout.rank;

@@ -27,4 +27,5 @@ void Runtime::gather(WorldState&) { not_built(); }
 bool Runtime::broadcast(bool) { not_built(); }
 const std::vector<Domain>& Runtime::rebalanced_domains() const { not_built(); }
 void Runtime::broadcast_world(WorldState&) { not_built(); }
+Scheduler& Runtime::scheduler() { not_built(); }
 }  // namespace perifx::distributed
