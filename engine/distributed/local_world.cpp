@@ -196,17 +196,13 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
     ld.patches.push_back(std::move(patches));
   }
 
-  // Contact: the whole world's settings and largest contact distance (so every rank's list reaches as
-  // far); the pair list is built on the first step. Projectiles: the same spheres on every rank.
+  // Contact: the scene's settings, resolved as for the whole world, and the whole world's largest
+  // contact distance (so every rank's list reaches as far); the pair list is built on the first step.
+  // Projectiles: the same spheres on every rank.
   const ContactState& fc = full.contact;
-  ContactState& c = w->contact;
-  c.enabled = fc.enabled;
-  c.distance_factor = fc.distance_factor;
-  c.stiffness_factor = fc.stiffness_factor;
-  c.damping_ratio = fc.damping_ratio;
-  c.friction = fc.friction;
-  c.largest_distance = fc.largest_distance;
-  c.pairs.skin = fc.pairs.skin;
+  systems::setup_contact(*w);
+  w->contact.largest_distance = fc.largest_distance;
+  w->contact.pairs.skin = fc.pairs.skin;
   systems::resize_contact(*w);
   w->projectiles.bodies = full.projectiles.bodies;
   systems::resize_projectiles(*w);
