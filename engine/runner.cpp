@@ -115,9 +115,10 @@ using PvdEntries = std::vector<std::pair<double, std::string>>;
 // run_world makes, in the same order (each is collective), and no files.
 template <class StepOfFrame>
 RunSummary follow_run(World& world, std::uint64_t frames, std::uint64_t start_frame, std::uint64_t first_step,
-                      StepOfFrame step_of_frame) {
+                      StepOfFrame step_of_frame, bool profile) {
   RunSummary summary;
   summary.first_frame = summary.last_frame = start_frame;
+  world.set_profiling(profile);
   if (start_frame == 0) world.gather();  // frame 0
   for (std::uint64_t k = start_frame + 1; k <= frames; ++k) {
     const std::uint64_t target = first_step + step_of_frame(k);
@@ -132,6 +133,7 @@ RunSummary follow_run(World& world, std::uint64_t frames, std::uint64_t start_fr
   summary.frames = frames;
   summary.steps = world.step_count() - first_step;
   summary.threads = world.threads();
+  if (profile) summary.system_times = world.all_ranks_system_times();  // rank 0 gathers them
   return summary;
 }
 
@@ -279,7 +281,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
     }
     if (lead) remove_files(existing);  // overwrite, or resume with no checkpoint: start over
   }
-  if (!lead) return follow_run(world, frames, start_frame, first_step, step_of_frame);
+  if (!lead) return follow_run(world, frames, start_frame, first_step, step_of_frame, options.profile);
   summary.first_frame = start_frame;
   if (sc.output.obj) io::write_surface_mtl(summary.output_directory / "surface.mtl");
 
@@ -453,7 +455,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
   summary.contact_list_additions = world.contact_counters().list_additions;
   summary.contact_list_partial_updates = world.contact_counters().list_partial_updates;
   summary.contact_list_searched = world.contact_counters().list_searched;
-  if (options.profile) summary.system_times = world.system_times(), summary.setup_times = world.setup_times();
+  if (options.profile) summary.system_times = world.all_ranks_system_times(), summary.setup_times = world.setup_times();
 
   // nlohmann-json does the quoting, so any scene name gives valid JSON; ordered keeps the field order.
   nlohmann::ordered_json js;
@@ -487,6 +489,9 @@ RunSummary run_world(World& world, const RunOptions& options) {
     prof = nlohmann::ordered_json::array();
     for (const auto& t : summary.system_times)
       prof.push_back({{"system", t.name}, {"wall_seconds", t.seconds}, {"steps", t.runs}});
+    if (summary.ranks > 1)
+      for (std::size_t k = 0; k < summary.system_times.size(); ++k)
+        prof[k]["rank_wall_seconds"] = summary.system_times[k].rank_seconds;
     auto& setup = js["setup_profile"];
     setup = nlohmann::ordered_json::array();
     for (const auto& t : summary.setup_times) setup.push_back({{"phase", t.name}, {"wall_seconds", t.seconds}});
@@ -505,13 +510,24 @@ std::string profile_table(const RunSummary& summary) {
   for (const auto& t : summary.system_times) runs = std::max(runs, t.runs);
   const double steps = runs > 0 ? double(runs) : 1.0;
   const double wall = summary.wall_seconds > 0 ? summary.wall_seconds : 1.0;
-  std::snprintf(line, sizeof line, "%-22s %10s %10s %8s\n", "system", "wall s", "ms/step", "share");
+  // A distributed run adds the fastest and slowest rank's seconds per system (this table is rank 0's):
+  // a halo exchange where some rank is much slower than another is where the faster ones wait.
+  const bool by_rank = !summary.system_times.empty() && !summary.system_times.front().rank_seconds.empty();
+  std::snprintf(line, sizeof line, "%-22s %10s %10s %8s%s\n", "system", "wall s", "ms/step", "share",
+                by_rank ? "   fastest rank s  slowest rank s" : "");
   out += line;
   double in_systems = 0.0;
   for (const auto& t : summary.system_times) {
-    std::snprintf(line, sizeof line, "%-22s %10.3f %10.4f %7.1f%%\n", t.name.c_str(), t.seconds,
+    std::snprintf(line, sizeof line, "%-22s %10.3f %10.4f %7.1f%%", t.name.c_str(), t.seconds,
                   t.runs ? 1e3 * t.seconds / double(t.runs) : 0.0, 100.0 * t.seconds / wall);
     out += line;
+    if (by_rank) {
+      const auto [low, high] = std::minmax_element(t.rank_seconds.begin(), t.rank_seconds.end());
+      std::snprintf(line, sizeof line, " %8.3f (r%td) %8.3f (r%td)", *low, low - t.rank_seconds.begin(), *high,
+                    high - t.rank_seconds.begin());
+      out += line;
+    }
+    out += "\n";
     in_systems += t.seconds;
   }
   // The rest of the stepping time: graph start-up and hand-over between nodes, the instability

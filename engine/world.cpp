@@ -311,6 +311,19 @@ std::vector<SystemTime> World::system_times() const {
   return out;
 }
 
+std::vector<SystemTime> World::all_ranks_system_times() {
+  std::vector<SystemTime> times = system_times();
+  if (!impl_->runtime) return times;
+  std::vector<double> mine;
+  for (const auto& t : times) mine.push_back(t.seconds);
+  const std::vector<double> all = impl_->runtime->gather_values(mine);
+  const std::size_t ranks = static_cast<std::size_t>(this->ranks());
+  if (all.size() == mine.size() * ranks)
+    for (std::size_t k = 0; k < times.size(); ++k)
+      for (std::size_t r = 0; r < ranks; ++r) times[k].rank_seconds.push_back(all[r * mine.size() + k]);
+  return times;
+}
+
 std::span<const Vec3> World::positions() const { return impl_->state->particles.position; }
 std::span<const Vec3> World::reference_positions() const { return impl_->state->particles.reference_position; }
 std::span<const Vec3> World::velocities() const { return impl_->state->particles.velocity; }

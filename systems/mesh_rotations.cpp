@@ -160,6 +160,7 @@ void update_held_rotations(WorldState& w) {
   const bool counted = broken.size() == np && initial.size() == np;
   const std::uint64_t phase = w.clock.step % kRefreshSteps;
   parallel_for_each(np, [&](std::size_t p) {
+    if (!w.owns(p)) return;  // a distributed run's ghost: its owner steps it
     if (!e.held_tracked[p] && !(counted && broken[p] > 0)) return;  // intact, family fits
     if (counted && broken[p] == e.held_broken_seen[p]) {  // alive set unchanged since the last evaluation
       // S_p is only R_old: refreshed in turn, by whole-world index (a distributed run's local index differs)

@@ -89,6 +89,9 @@ class Runtime {
   void broadcast_world(WorldState& full);
   // This rank's step graph (its local world's systems and the halo exchanges): `perifx run --profile`.
   Scheduler& scheduler();
+  // Every rank's `values` (the same count on each), rank after rank, on rank 0; empty elsewhere.
+  // Collective.
+  std::vector<double> gather_values(const std::vector<double>& values);
   // Rank 0's `full` receives every rank's owned particle and bond state (other ranks pass theirs,
   // which is left as it is). Collective.
   void gather(WorldState& full);

@@ -446,6 +446,13 @@ StepReport Runtime::step(bool check_broken) {
 const std::vector<Domain>& Runtime::rebalanced_domains() const { return impl_->rebalanced; }
 Scheduler& Runtime::scheduler() { return *impl_->scheduler; }
 
+std::vector<double> Runtime::gather_values(const std::vector<double>& values) {
+  const int count = int_count(values.size(), "gather");
+  std::vector<double> all(impl_->layout.rank == 0 ? values.size() * static_cast<std::size_t>(impl_->layout.ranks) : 0);
+  check(MPI_Gather(values.data(), count, MPI_DOUBLE, all.data(), count, MPI_DOUBLE, 0, MPI_COMM_WORLD), "gather");
+  return all;
+}
+
 void Runtime::broadcast_world(WorldState& full) {
   const int rank = impl_->layout.rank;
   for_each_array(full, [&](ArrayKind kind, const char* name, auto& array) {

@@ -28,4 +28,5 @@ bool Runtime::broadcast(bool) { not_built(); }
 const std::vector<Domain>& Runtime::rebalanced_domains() const { not_built(); }
 void Runtime::broadcast_world(WorldState&) { not_built(); }
 Scheduler& Runtime::scheduler() { not_built(); }
+std::vector<double> Runtime::gather_values(const std::vector<double>&) { not_built(); }
 }  // namespace perifx::distributed

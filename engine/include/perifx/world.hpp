@@ -87,6 +87,8 @@ struct SystemTime {
   std::string name;        // the system's name, as in World::schedule()
   double seconds = 0.0;    // summed over the profiled steps; systems the graph runs side by side overlap
   std::uint64_t runs = 0;  // profiled steps it ran in
+  // Distributed runs (World::all_ranks_system_times, on rank 0): every rank's seconds, by rank.
+  std::vector<double> rank_seconds;
 };
 
 // One rank's share of the world in a distributed run over N ranks (World::decompose; issue 17 and
@@ -162,6 +164,9 @@ class World {
   // reads per system per step). `perifx run --profile` prints it.
   void set_profiling(bool on);
   std::vector<SystemTime> system_times() const;  // in schedule() order
+  // The same, with every rank's seconds in rank_seconds on rank 0 of a distributed run (collective;
+  // other ranks get their own times back). Where ranks wait for each other shows as halo time.
+  std::vector<SystemTime> all_ranks_system_times();
   // Wall time of each phase of building this world (bodies, families, embedded mesh, model
   // constants ...) and, once stable_time_step() has run, of the stable-step estimate; runs = 1.
   std::vector<SystemTime> setup_times() const;
