@@ -370,36 +370,19 @@ void rebuild_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& centroid
   ++pr.builds;
 }
 
-}  // namespace
-
-void setup_contact(WorldState& w) {
-  const auto& sc = w.settings.contact;
-  auto& c = w.contact;
-  c.enabled = sc.mode == scene::Contact::Mode::on ||
-              (sc.mode == scene::Contact::Mode::automatic && (w.bodies.size() >= 2 || w.any_fracture));
-  c.distance_factor = sc.distance_factor;
-  c.stiffness_factor = sc.stiffness_factor;
-  c.damping_ratio = sc.damping_ratio;
-  c.friction = sc.friction;
-  const std::size_t n = w.particles.count();
-  c.size.resize(n);
-  double largest = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    c.size[i] = std::cbrt(w.particles.volume[i]);
-    largest = std::max(largest, c.size[i]);
-  }
-  if (!c.enabled) return;
-  c.largest_distance = c.distance_factor * largest;
-  c.pairs.skin = kSkinFraction * c.largest_distance;
-  resize_contact(w);
-}
-
-void resize_contact(WorldState& w) {
+// contact.size: s_i = ∛V_i per particle.
+void size_particles(WorldState& w) {
   auto& c = w.contact;
   const std::size_t n = w.particles.count();
   c.size.resize(n);
   for (std::size_t i = 0; i < n; ++i) c.size[i] = std::cbrt(w.particles.volume[i]);
-  if (!c.enabled) return;
+}
+
+// Every buffer of the pair list and grid, for the current particle count (the list is built on the
+// next step).
+void allocate_pairs(WorldState& w) {
+  auto& c = w.contact;
+  const std::size_t n = w.particles.count();
   auto& pr = c.pairs;
   pr.offsets.assign(n + 1, 0);
   pr.count.assign(n, 0);
@@ -424,6 +407,32 @@ void resize_contact(WorldState& w) {
   pr.valid = false;
   allocate_grid(c.grid, n, c.largest_distance + pr.skin);
 }
+
+}  // namespace
+
+void setup_contact(WorldState& w) {
+  const auto& sc = w.settings.contact;
+  auto& c = w.contact;
+  c.enabled = sc.mode == scene::Contact::Mode::on ||
+              (sc.mode == scene::Contact::Mode::automatic && (w.bodies.size() >= 2 || w.any_fracture));
+  c.distance_factor = sc.distance_factor;
+  c.stiffness_factor = sc.stiffness_factor;
+  c.damping_ratio = sc.damping_ratio;
+  c.friction = sc.friction;
+  size_particles(w);
+  if (!c.enabled) return;
+  double largest = 0.0;
+  for (const double size : c.size) largest = std::max(largest, size);
+  c.largest_distance = c.distance_factor * largest;
+  c.pairs.skin = kSkinFraction * c.largest_distance;
+  allocate_pairs(w);
+}
+
+void resize_contact(WorldState& w) {
+  size_particles(w);
+  if (w.contact.enabled) allocate_pairs(w);
+}
+
 
 SystemDecl contact_system(WorldState& w) {
   return {"contact",

@@ -110,28 +110,26 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
   for_each_array(full, [&](ArrayKind kind, const char*, const auto& array) {
     if (kind == ArrayKind::particle) sources.push_back(&array);
   });
+  // dst[l] = src[order[l]] for a full-length src; other sizes (unused arrays, bonds.offsets) are skipped.
+  auto through_order = [&](const auto& src, auto& dst) {
+    if (src.size() != n_full) return;
+    dst.resize(n);
+    for (std::size_t l = 0; l < n; ++l) dst[l] = src[order[l]];
+  };
   std::size_t k = 0;
   for_each_array(*w, [&](ArrayKind kind, const char*, auto& array) {
     if (kind != ArrayKind::particle) return;
-    const auto& src = *static_cast<const std::remove_reference_t<decltype(array)>*>(sources[k++]);
-    if (src.size() != n_full) return;  // empty (unused) arrays and bonds.offsets
-    array.resize(n);
-    for (std::size_t l = 0; l < n; ++l) array[l] = src[order[l]];
+    through_order(*static_cast<const std::remove_reference_t<decltype(array)>*>(sources[k++]), array);
   });
   // The embedded mesh's per-particle held rotations (systems/mesh_rotations.cpp) are stepped here, on
   // the owned particles' families; rank 0's full world keeps the mesh itself (runtime.hpp).
   const EmbeddedMesh& fe = full.embedded;
   EmbeddedMesh& e = w->embedded;
   e.motion = fe.motion;
-  auto per_particle = [&](const auto& src, auto& dst) {
-    if (src.size() != n_full) return;
-    dst.resize(n);
-    for (std::size_t l = 0; l < n; ++l) dst[l] = src[order[l]];
-  };
-  per_particle(fe.held_deformation, e.held_deformation);
-  per_particle(fe.held_tracked, e.held_tracked);
-  per_particle(fe.held_fits, e.held_fits);
-  per_particle(fe.held_broken_seen, e.held_broken_seen);
+  through_order(fe.held_deformation, e.held_deformation);
+  through_order(fe.held_tracked, e.held_tracked);
+  through_order(fe.held_fits, e.held_fits);
+  through_order(fe.held_broken_seen, e.held_broken_seen);
 
   // Ghosts: integration and colliders leave them alone (the halo brings their motion).
   for (std::size_t l = 0; l < n; ++l)
