@@ -243,6 +243,8 @@ inline PdResult solve_pd(Problem problem, const Material& mat, int cells_deep, s
   // Coarse (Ritz) start: the best combination of a few smooth fields of the problem's kind (beam
   // bending, twist with warping, stretch with contraction, as powers of the distance s from the
   // clamp), so CG only has to resolve the local corrections, not the slow global mode.
+  // The fields return Vec3, never an Eigen expression: an expression of a temporary Vec3 would
+  // outlive it (it failed the torsion solve now and then, with a zero twist).
   std::vector<Eigen::VectorXd> basis;
   auto field = [&](auto&& fn) {
     Eigen::VectorXd v = Eigen::VectorXd::Zero(3 * n);
@@ -252,12 +254,12 @@ inline PdResult solve_pd(Problem problem, const Material& mat, int cells_deep, s
   };
   for (int k = 1; k <= 5; ++k) {
     if (problem == Problem::cantilever) {
-      field([&](const Vec3& p, double s) { return Vec3(-p.y() * k * std::pow(s, k - 1), std::pow(s, k), 0); });
-      field([&](const Vec3& p, double s) { return Vec3(0, std::pow(s, k) * (p.z() * p.z() - p.y() * p.y()), p.y() * p.z() * std::pow(s, k)); });
-      field([&](const Vec3& p, double s) { return Vec3(std::pow(s, k) * p.y(), 0, 0); });
+      field([&](const Vec3& p, double s) -> Vec3 { return Vec3(-p.y() * k * std::pow(s, k - 1), std::pow(s, k), 0); });
+      field([&](const Vec3& p, double s) -> Vec3 { return Vec3(0, std::pow(s, k) * (p.z() * p.z() - p.y() * p.y()), p.y() * p.z() * std::pow(s, k)); });
+      field([&](const Vec3& p, double s) -> Vec3 { return Vec3(std::pow(s, k) * p.y(), 0, 0); });
     } else if (problem == Problem::torsion) {
-      field([&](const Vec3& p, double s) { return Vec3(0, -p.z(), p.y()) * std::pow(s, k); });
-      field([&](const Vec3& p, double s) { return Vec3(p.y() * p.z() * k * std::pow(s, k - 1), 0, 0); });
+      field([&](const Vec3& p, double s) -> Vec3 { return Vec3(0, -p.z(), p.y()) * std::pow(s, k); });
+      field([&](const Vec3& p, double s) -> Vec3 { return Vec3(p.y() * p.z() * k * std::pow(s, k - 1), 0, 0); });
     }  // stretch: CG from zero converges quickly (an axial problem)
   }
   Eigen::VectorXd u = Eigen::VectorXd::Zero(3 * n), Ap(3 * n);
