@@ -35,7 +35,7 @@
 // list (the sheet preview rebuilt it 987 times in 4000 steps when any skin/2 motion rebuilt all).
 // The search uses a hashed uniform grid (spatial_grid.hpp; cell = reach, counting sort, stable:
 // particles in a bucket stay in index order) and visits 9 rows of 3 cells in a fixed order. A full
-// rebuild searches only the forward half of those cells (for_each_near_forward), so each pair is tested
+// rebuild searches only the forward half of those cells (for_each_within_forward), so each pair is tested
 // once, and writes it on both sides. The skin, 0.6 d_c, is what balances the cost on the fast
 // fragments of the bunny preview (dt 5e-4 s, 3 m/s landing): 0.3 rebuilt the list 313 times in 1,000
 // steps; a larger skin searches more candidates per search (∝ reach³). Each particle then gathers the forces on
@@ -75,7 +75,7 @@ constexpr double kBrokenReachExtra = 0.25;  // a broken bond's pair is added wit
 static_assert(3 * kMoveLimit < 1.0 && 4 * kMoveLimit < 1.0 + kBrokenReachExtra,
               "a pair left out of the list must not close to within the largest contact distance");
 // Calls visit(j) for every unbonded particle j ≠ i within the grid cell size of i, in a fixed order
-// (9 rows of 3 cells; kForwardHalf: only the forward half of them, for_each_near_forward, so that a
+// (9 rows of 3 cells; kForwardHalf: only the forward half of them, for_each_within_forward, so that a
 // search of every particle visits each pair once). `stamp` is this (pass, particle)'s unique mark and
 // `marks` the calling thread's row of ContactPairs::bonded_stamp.
 template <bool kForwardHalf = false, class Visit>
@@ -95,14 +95,14 @@ void for_each_candidate(const WorldState& w, std::uint32_t i, std::uint64_t stam
       if (b.neighbor[k] == i) return b.alive[k] != 0;
     return false;
   };
-  auto test = [&](std::uint32_t q) {
+  auto test = [&](std::uint32_t q) {  // q is within reach (for_each_within's branch-free filter)
     const std::uint32_t j = g.sorted[q];
-    if (j == i || (g.sorted_position[q] - yi).squaredNorm() >= reach2 || marks[j] == stamp) return;
+    if (j == i || marks[j] == stamp) return;
     if (ghost && (!w.owns(j) || bonded_to_ghost(j))) return;
     visit(j);
   };
-  if constexpr (kForwardHalf) for_each_near_forward(g, yi, i, test);
-  else for_each_near(g, yi, test);
+  if constexpr (kForwardHalf) for_each_within_forward(g, yi, i, reach2, test);
+  else for_each_within(g, yi, reach2, test);
 }
 
 // The calling worker's row of the bonded-partner marks.
@@ -316,7 +316,7 @@ void rebuild_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& centroid
   const std::size_t n = p.count();
   build_grid(g, p.position);  // 1. cells and buckets, 2. counting sort (spatial_grid.cpp)
   // 3. Half search (parallel): each pair is found once, by the end whose forward half-neighbourhood
-  // holds the other (for_each_near_forward), which halves the candidate tests, the build's inner loop.
+  // holds the other (for_each_within_forward), which halves the candidate tests, the build's inner loop.
   // The search keeps each particle's first kScratchPerParticle finds; a forward CSR (offsets_next,
   // neighbor_next, free between updates) then takes them, searching again only for the rare particle
   // with more. Stamps are fresh for every pass and particle, so a mark left by an earlier pass or
@@ -465,6 +465,7 @@ SystemDecl contact_system(WorldState& w) {
                 const Vec3 r = p.position[j] - yi;
                 const double d2 = r.squaredNorm();
                 double dc = c.distance_factor * (0.5 * (c.size[i] + c.size[j]));
+                if (d2 >= dc * dc) continue;  // most of the list: out of contact whatever the cap below
                 if (p.body_id[i] == p.body_id[j])
                   dc = std::min(dc, (p.reference_position[j] - p.reference_position[i]).norm());
                 if (d2 >= dc * dc) continue;

@@ -184,8 +184,8 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
       if (g < d.first || g >= d.last) continue;
       particles.push_back(g - d.first + shift);
       if (has_patches) {
-        for (std::uint32_t e = fl.patch_offsets[q][m]; e < fl.patch_offsets[q][m + 1]; ++e)
-          patches.push_back(fl.patches[q][e] - patch_first);
+        for (std::uint32_t pe = fl.patch_offsets[q][m]; pe < fl.patch_offsets[q][m + 1]; ++pe)
+          patches.push_back(fl.patches[q][pe] - patch_first);
         patch_offsets.push_back(static_cast<std::uint32_t>(patches.size()));
       }
     }

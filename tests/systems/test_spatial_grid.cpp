@@ -2,6 +2,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <utility>
 #include <vector>
@@ -46,4 +47,37 @@ TEST_CASE("spatial grid: the forward half-neighbourhood visits every pair within
   CHECK(std::adjacent_find(forward.begin(), forward.end()) == forward.end());  // none twice
   CHECK(forward == brute);
   CHECK(full == brute);
+}
+
+TEST_CASE("spatial grid: the within-radius visits are the neighbourhood visits filtered by distance, in the same order") {
+  // for_each_within(_forward) test the distance of a chunk of slots without branches and visit the
+  // passing ones afterwards (the contact search's inner loop). They must visit exactly the slots the
+  // plain visit yields that lie within the radius, in the same order (the contact list's order, and so
+  // its bits, depends on it), including a NaN point, which passes as the callers' tests let it.
+  std::mt19937_64 rng(777);
+  std::uniform_real_distribution<double> u(-0.04, 0.04);
+  std::vector<Vec3> points;
+  for (int i = 0; i < 3000; ++i) points.emplace_back(u(rng), u(rng), u(rng));
+  for (int i = 0; i < 200; ++i) points.emplace_back(0.01 * u(rng), 0.01 * u(rng), 0.01 * u(rng));  // > 64 slots a cell
+  points.emplace_back(std::nan(""), 0.0, 0.0);
+  const double reach = 0.011, r2 = reach * reach;
+  SpatialGrid g;
+  systems::allocate_grid(g, points.size(), reach);
+  systems::build_grid(g, points);
+  std::size_t visits = 0;
+  for (std::uint32_t i = 0; i < points.size(); ++i) {
+    std::vector<std::uint32_t> plain, within, plain_forward, within_forward;
+    systems::for_each_near(g, points[i], [&](std::uint32_t q) {
+      if (!((g.sorted_position[q] - points[i]).squaredNorm() >= r2)) plain.push_back(q);
+    });
+    systems::for_each_within(g, points[i], r2, [&](std::uint32_t q) { within.push_back(q); });
+    systems::for_each_near_forward(g, points[i], i, [&](std::uint32_t q) {
+      if (!((g.sorted_position[q] - points[i]).squaredNorm() >= r2)) plain_forward.push_back(q);
+    });
+    systems::for_each_within_forward(g, points[i], i, r2, [&](std::uint32_t q) { within_forward.push_back(q); });
+    CHECK(within == plain);
+    CHECK(within_forward == plain_forward);
+    visits += within.size();
+  }
+  CHECK(visits > 30000);  // about 20 points within reach of each
 }
