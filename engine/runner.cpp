@@ -133,7 +133,8 @@ RunSummary follow_run(World& world, std::uint64_t frames, std::uint64_t start_fr
   summary.frames = frames;
   summary.steps = world.step_count() - first_step;
   summary.threads = world.threads();
-  if (profile) summary.system_times = world.all_ranks_system_times();  // rank 0 gathers them
+  summary.rank_stats = world.rank_stats();                             // rank 0 gathers them
+  if (profile) summary.system_times = world.all_ranks_system_times();  // and these
   return summary;
 }
 
@@ -450,11 +451,14 @@ RunSummary run_world(World& world, const RunOptions& options) {
   summary.threads = world.threads();
   summary.ranks = world.ranks();
   summary.rebalances = world.rebalances();
-  summary.contact_list_builds = world.contact_counters().list_builds;
   summary.first_break_time = world.first_break_time();
-  summary.contact_list_additions = world.contact_counters().list_additions;
-  summary.contact_list_partial_updates = world.contact_counters().list_partial_updates;
-  summary.contact_list_searched = world.contact_counters().list_searched;
+  summary.rank_stats = world.rank_stats();  // collective: follow_run makes the same call
+  for (const RankStats& r : summary.rank_stats) {
+    summary.contact_list_builds += r.contact.list_builds;
+    summary.contact_list_additions += r.contact.list_additions;
+    summary.contact_list_partial_updates += r.contact.list_partial_updates;
+    summary.contact_list_searched += r.contact.list_searched;
+  }
   if (options.profile) summary.system_times = world.all_ranks_system_times(), summary.setup_times = world.setup_times();
 
   // nlohmann-json does the quoting, so any scene name gives valid JSON; ordered keeps the field order.
@@ -481,6 +485,18 @@ RunSummary run_world(World& world, const RunOptions& options) {
   js["contact_list_additions"] = summary.contact_list_additions;
   js["contact_list_partial_updates"] = summary.contact_list_partial_updates;
   js["contact_list_searched"] = summary.contact_list_searched;
+  if (summary.ranks > 1) {
+    auto& shares = js["rank_stats"];
+    shares = nlohmann::ordered_json::array();
+    for (const RankStats& r : summary.rank_stats)
+      shares.push_back({{"owned_particles", r.owned_particles},
+                        {"bond_ghosts", r.bond_ghosts},
+                        {"contact_ghosts", r.contact_ghosts},
+                        {"halo_bytes_per_step", r.steps ? double(r.halo_bytes) / double(r.steps) : 0.0},
+                        {"contact_ghost_refreshes", r.contact_ghost_refreshes},
+                        {"contact_list_builds", r.contact.list_builds},
+                        {"contact_list_searched", r.contact.list_searched}});
+  }
   js["first_frame"] = summary.first_frame;  // > 0: resumed after that frame's checkpoint
   js["last_frame"] = summary.last_frame;
   js["interrupted"] = summary.interrupted;

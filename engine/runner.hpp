@@ -57,6 +57,9 @@ struct RunSummary {
   std::uint64_t contact_list_additions = 0;  // and incremental additions of broken bonds' pairs
   std::uint64_t contact_list_partial_updates = 0;  // updates that searched only the moved particles
   std::uint64_t contact_list_searched = 0;         // particles searched by those updates
+  // Distributed runs: every rank's share, ghosts and halo traffic (World::rank_stats; the contact_list_*
+  // counts above are their sums).
+  std::vector<RankStats> rank_stats;
   std::filesystem::path output_directory;
   std::uint64_t first_frame = 0;      // 0, or the checkpoint's frame a resumed run continued after
   std::uint64_t last_frame = 0;       // the last frame written

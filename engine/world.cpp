@@ -35,6 +35,7 @@ struct World::Impl {
   std::vector<setup::PhaseTime> setup_times;  // construction phases, then the stable-step estimate
   std::unique_ptr<distributed::Runtime> runtime;  // distribute(): this rank's local world and halos
   std::uint64_t rebalances = 0;                  // re-splits of the distributed run so far
+  distributed::RankShare carried;                // traffic and list counters of the runtimes before the last re-split
   bool embedded_mesh = false;                    // a distributed world had an embedded mesh when split
   bool profiling = false;                        // set_profiling's last word
   std::vector<SystemTime> earlier_times;         // profile of the step graphs before the last re-split
@@ -93,6 +94,15 @@ void World::rebalance() {
   gather();
   impl_->runtime->broadcast_world(*impl_->state);
   impl_->earlier_times = system_times();
+  const distributed::RankShare before = impl_->runtime->share();
+  auto& carried = impl_->carried;
+  carried.halo_bytes += before.halo_bytes;
+  carried.steps += before.steps;
+  carried.contact_ghost_refreshes += before.contact_ghost_refreshes;
+  carried.list_builds += before.list_builds;
+  carried.list_additions += before.list_additions;
+  carried.list_partial_updates += before.list_partial_updates;
+  carried.list_searched += before.list_searched;
   impl_->runtime.reset();
   split(&domains);
   if (impl_->profiling) impl_->runtime->scheduler().set_profiling(true);
@@ -203,7 +213,7 @@ double World::stable_time_step_bound() const {
 
 std::vector<SystemTime> World::setup_times() const {
   std::vector<SystemTime> out;
-  for (const auto& t : impl_->setup_times) out.push_back({t.name, t.seconds, 1});
+  for (const auto& t : impl_->setup_times) out.push_back({t.name, t.seconds, 1, {}});
   return out;
 }
 
@@ -305,7 +315,7 @@ std::vector<SystemTime> World::system_times() const {
   const Scheduler& s = impl_->runtime ? impl_->runtime->scheduler() : *impl_->scheduler;
   for (const auto& t : s.profile()) {
     auto at = std::find_if(out.begin(), out.end(), [&](const SystemTime& e) { return e.name == t.name; });
-    if (at == out.end()) out.push_back({t.name, t.seconds, t.runs});
+    if (at == out.end()) out.push_back({t.name, t.seconds, t.runs, {}});
     else at->seconds += t.seconds, at->runs += t.runs;
   }
   return out;
@@ -322,6 +332,33 @@ std::vector<SystemTime> World::all_ranks_system_times() {
     for (std::size_t k = 0; k < times.size(); ++k)
       for (std::size_t r = 0; r < ranks; ++r) times[k].rank_seconds.push_back(all[r * mine.size() + k]);
   return times;
+}
+
+std::vector<RankStats> World::rank_stats() {
+  if (!impl_->runtime) {
+    RankStats one;
+    one.owned_particles = static_cast<std::uint32_t>(particle_count());
+    one.steps = step_count();
+    one.contact = contact_counters();
+    return {one};
+  }
+  const distributed::RankShare now = impl_->runtime->share(), &c = impl_->carried;
+  const std::vector<double> mine = {double(now.owned), double(now.bond_ghosts), double(now.contact_ghosts),
+                                    double(now.halo_bytes + c.halo_bytes), double(now.steps + c.steps),
+                                    double(now.contact_ghost_refreshes + c.contact_ghost_refreshes),
+                                    double(now.list_builds + c.list_builds), double(now.list_additions + c.list_additions),
+                                    double(now.list_partial_updates + c.list_partial_updates),
+                                    double(now.list_searched + c.list_searched)};
+  std::vector<double> all = impl_->runtime->gather_values(mine);  // counts < 2^53: exact in doubles
+  if (all.empty()) all = mine;  // ranks other than 0: their own
+  std::vector<RankStats> out(all.size() / mine.size());
+  for (std::size_t r = 0; r < out.size(); ++r) {
+    const double* v = all.data() + r * mine.size();
+    auto u64 = [&](int k) { return static_cast<std::uint64_t>(v[k]); };
+    out[r] = {static_cast<std::uint32_t>(v[0]), static_cast<std::uint32_t>(v[1]), static_cast<std::uint32_t>(v[2]),
+              u64(3), u64(4), u64(5), {u64(6), u64(7), u64(8), u64(9)}};
+  }
+  return out;
 }
 
 std::span<const Vec3> World::positions() const { return impl_->state->particles.position; }

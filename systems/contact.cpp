@@ -410,7 +410,7 @@ void allocate_pairs(WorldState& w) {
 
 }  // namespace
 
-void setup_contact(WorldState& w) {
+void setup_contact(WorldState& w, double largest_distance) {
   const auto& sc = w.settings.contact;
   auto& c = w.contact;
   c.enabled = sc.mode == scene::Contact::Mode::on ||
@@ -421,9 +421,13 @@ void setup_contact(WorldState& w) {
   c.friction = sc.friction;
   size_particles(w);
   if (!c.enabled) return;
-  double largest = 0.0;
-  for (const double size : c.size) largest = std::max(largest, size);
-  c.largest_distance = c.distance_factor * largest;
+  if (largest_distance > 0.0) {
+    c.largest_distance = largest_distance;
+  } else {
+    double largest = 0.0;
+    for (const double size : c.size) largest = std::max(largest, size);
+    c.largest_distance = c.distance_factor * largest;
+  }
   c.pairs.skin = kSkinFraction * c.largest_distance;
   allocate_pairs(w);
 }

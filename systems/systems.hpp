@@ -33,7 +33,9 @@ double yield_extension_from_stress(double yield_stress, double mu);
 void apply_strength_field(WorldState& world);
 double strength_noise(const Vec3& x, double feature_size, std::uint64_t seed);  // in [−1, 1]
 // contact.cpp / projectiles.cpp: resolve the scene's contact settings and projectiles, size buffers.
-void setup_contact(WorldState& world);
+// A distributed run's local world passes the whole world's largest contact distance (its pair
+// list's reach and skin must be the whole world's); 0: this world's own.
+void setup_contact(WorldState& world, double largest_distance = 0.0);
 void setup_projectiles(WorldState& world);
 // Re-sizes the contact and projectile buffers after the particle count changed (a distributed run's
 // contact ghosts come and go) and drops the pair list; the settings and largest distance stay.

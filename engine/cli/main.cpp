@@ -443,6 +443,17 @@ int cmd_run(const Args& a) {
                   (unsigned long long)s.frames, s.simulated_seconds, s.wall_seconds, s.output_seconds,
                   s.bond_updates_per_second, s.threads, s.output_directory.string().c_str());
     std::cerr << buf;
+    // A distributed run: each rank's share, ghosts and the halo bytes it received per step.
+    for (std::size_t r = 0; s.ranks > 1 && r < s.rank_stats.size(); ++r) {
+      const perifx::RankStats& st = s.rank_stats[r];
+      std::snprintf(buf, sizeof buf,
+                    "      rank %zu: %u particles, %u bond ghosts, %u contact ghosts, %.1f kB halo per step, "
+                    "%llu contact-ghost refreshes\n",
+                    r, st.owned_particles, st.bond_ghosts, st.contact_ghosts,
+                    st.steps ? 1e-3 * double(st.halo_bytes) / double(st.steps) : 0.0,
+                    (unsigned long long)st.contact_ghost_refreshes);
+      std::cerr << buf;
+    }
   }
   if (a.profile) std::cout << "profile (" << s.threads << " threads):\n" << perifx::profile_table(s) << std::flush;
   if (s.interrupted) {

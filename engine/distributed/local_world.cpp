@@ -198,10 +198,7 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
   // contact distance (so every rank's list reaches as far); the pair list is built on the first step.
   // Projectiles: the same spheres on every rank.
   const ContactState& fc = full.contact;
-  systems::setup_contact(*w);
-  w->contact.largest_distance = fc.largest_distance;
-  w->contact.pairs.skin = fc.pairs.skin;
-  systems::resize_contact(*w);
+  systems::setup_contact(*w, fc.largest_distance);
   w->projectiles.bodies = full.projectiles.bodies;
   systems::resize_projectiles(*w);
   layout.base_count = static_cast<std::uint32_t>(n);

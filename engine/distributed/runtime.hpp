@@ -65,6 +65,18 @@ struct StepReport {
   bool rebalance = false;   // the work per rank drifted: re-split with Runtime::rebalanced_domains()
 };
 
+// One rank's share of a distributed run and its traffic since its local world was made (Runtime::share).
+struct RankShare {
+  std::uint32_t owned = 0;           // particles it owns
+  std::uint32_t bond_ghosts = 0;     // far ends of its owned bonds on other ranks
+  std::uint32_t contact_ghosts = 0;  // other ranks' particles within contact reach (as of the last refresh)
+  std::uint64_t halo_bytes = 0;      // received by the step's halo exchanges and the contact-ghost refreshes
+  std::uint64_t steps = 0;           // steps taken
+  std::uint64_t contact_ghost_refreshes = 0;
+  // Its own contact pair list's counters (systems/contact.cpp).
+  std::uint64_t list_builds = 0, list_additions = 0, list_partial_updates = 0, list_searched = 0;
+};
+
 class Runtime {
  public:
   // Splits `full` over the ranks of MPI_COMM_WORLD (by `domains`, or split_by_work's listed bonds) and
@@ -97,6 +109,8 @@ class Runtime {
   void gather(WorldState& full);
   // Rank 0's value of `flag` on every rank. Collective.
   bool broadcast(bool flag);
+  // This rank's share (not collective).
+  RankShare share() const;
 
  private:
   struct Impl;

@@ -123,6 +123,8 @@ struct Runtime::Impl {
   std::vector<MPI_Request> requests;
   std::vector<int> counts, displacements;  // per rank, for the collectives with a count per rank
   std::uint64_t contact_refreshes = 0;
+  std::uint64_t halo_bytes = 0;            // received by exchange() and the contact-ghost refreshes
+  std::uint64_t steps = 0;
   std::vector<double> projectile_mine;     // this rank's projectile contacts, while they are gathered
   std::vector<Domain> rebalanced;          // the re-split a StepReport asked for
   // The embedded mesh (rank 0's full world) is split by replaying, at each gather, every step's breaks:
@@ -235,6 +237,7 @@ struct Runtime::Impl {
       check(MPI_Irecv(receive_buf[q].data(), static_cast<int>(link.local.size() * w), MPI_DOUBLE, link.rank, tag,
                       MPI_COMM_WORLD, &requests[r]),
             "receive");
+      halo_bytes += link.local.size() * w * sizeof(double);
     }
     for (std::size_t q = 0; q < sends.size(); ++q, ++r) {
       const auto& link = sends[q];
@@ -318,6 +321,7 @@ struct Runtime::Impl {
     set_contact_ghosts(w, layout, received);
     set_motion_links();
     ++contact_refreshes;
+    halo_bytes += total;
   }
 };
 
@@ -416,6 +420,7 @@ StepReport Runtime::step(bool check_broken) {
   Impl& m = *impl_;
   WorldState& w = *m.local;
   m.scheduler->run_step();
+  ++m.steps;
   auto& c = w.clock;
   ++c.step;
   c.time = static_cast<double>(c.step) * c.dt;
@@ -444,6 +449,15 @@ StepReport Runtime::step(bool check_broken) {
 }
 
 const std::vector<Domain>& Runtime::rebalanced_domains() const { return impl_->rebalanced; }
+
+RankShare Runtime::share() const {
+  const Impl& m = *impl_;
+  const auto local = static_cast<std::uint32_t>(m.layout.global_of.size());
+  const auto& pairs = m.local->contact.pairs;
+  return {m.layout.owned_count, m.layout.base_count - m.layout.owned_count, local - m.layout.base_count,
+          m.halo_bytes, m.steps, m.contact_refreshes, pairs.builds, pairs.additions, pairs.partial_updates,
+          pairs.searched};
+}
 Scheduler& Runtime::scheduler() { return *impl_->scheduler; }
 
 std::vector<double> Runtime::gather_values(const std::vector<double>& values) {

@@ -25,6 +25,7 @@ int Runtime::ranks() const { return 1; }
 StepReport Runtime::step(bool) { not_built(); }
 void Runtime::gather(WorldState&) { not_built(); }
 bool Runtime::broadcast(bool) { not_built(); }
+RankShare Runtime::share() const { not_built(); }
 const std::vector<Domain>& Runtime::rebalanced_domains() const { not_built(); }
 void Runtime::broadcast_world(WorldState&) { not_built(); }
 Scheduler& Runtime::scheduler() { not_built(); }

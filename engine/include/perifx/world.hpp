@@ -82,6 +82,17 @@ struct ContactCounters {
   std::uint64_t list_searched = 0;         // particles searched by those updates
 };
 
+// One rank's share of a distributed run and its traffic over the run (World::rank_stats).
+struct RankStats {
+  std::uint32_t owned_particles = 0;  // now
+  std::uint32_t bond_ghosts = 0;      // now: far ends of its owned bonds, owned by other ranks
+  std::uint32_t contact_ghosts = 0;   // as of the last refresh: other ranks' particles within contact reach
+  std::uint64_t halo_bytes = 0;       // received by the per-step halo exchanges and the contact-ghost refreshes
+  std::uint64_t steps = 0;            // steps it took part in (halo_bytes / steps: bytes per step)
+  std::uint64_t contact_ghost_refreshes = 0;
+  ContactCounters contact;            // its own pair list's
+};
+
 // Wall time of one system of the step's task graph while profiling was on (World::set_profiling).
 struct SystemTime {
   std::string name;        // the system's name, as in World::schedule()
@@ -186,7 +197,10 @@ class World {
 
   std::vector<BodyView> bodies() const;
   std::vector<ProjectileView> projectiles() const;
-  ContactCounters contact_counters() const;
+  ContactCounters contact_counters() const;  // this process's list (a distributed run's: rank_stats())
+  // Every rank's share and traffic over the run, by rank, on rank 0 of a distributed run (collective;
+  // other ranks get their own); one entry in one process (no ghosts, no halo).
+  std::vector<RankStats> rank_stats();
   bool has_embedded_mesh() const;   // peridynamics worlds (the FEM solver has no cracking mesh)
   TetMeshView tet_mesh() const;       // the cracking mesh, current vertex positions (see TetMeshView)
   TetMeshView reference_mesh() const; // the mesh as built, before any split, at rest

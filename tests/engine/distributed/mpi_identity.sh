@@ -68,6 +68,24 @@ for spec in 1x1 2x1 3x1 4x1 2x2; do
   "$mpirun" --allow-run-as-root --oversubscribe --bind-to none -np "$ranks" "$perifx" run "$scene" --threads "$threads" --quiet --out "$out"
   compare "$ranks ranks x $threads threads" "$out"
 done
+# summary.json's per-rank figures (World::rank_stats): the shares add up to the world, every rank of the
+# struck plate has bond and contact ghosts, and each step moves at least the motion halo (6 doubles per
+# bond ghost) into every rank.
+python3 - "$work/ranks4_threads1/summary.json" <<'EOF' || fail=1
+import json, sys
+s = json.load(open(sys.argv[1]))
+stats = s["rank_stats"]
+problems = []
+if len(stats) != 4: problems.append(f"{len(stats)} entries for 4 ranks")
+if sum(r["owned_particles"] for r in stats) != s["particles"]: problems.append("owned particles do not add up")
+for k, r in enumerate(stats):
+    if not (r["bond_ghosts"] > 0 and r["contact_ghosts"] > 0): problems.append(f"rank {k} has no ghosts: {r}")
+    if not r["halo_bytes_per_step"] >= 48 * r["bond_ghosts"]: problems.append(f"rank {k}: halo below the motion halo: {r}")
+if not s["contact_list_builds"] > 0: problems.append("no contact list built")
+print("mpi_identity: 4 ranks: " + "; ".join(f"rank {k} owns {r['owned_particles']}, {r['bond_ghosts']} bond + "
+      f"{r['contact_ghosts']} contact ghosts, {r['halo_bytes_per_step'] / 1e3:.1f} kB/step" for k, r in enumerate(stats)))
+if problems: sys.exit("mpi_identity: rank_stats: " + ", ".join(problems))
+EOF
 # Re-balancing: 3 ranks re-split whenever the equal-work split of the current work (alive bonds,
 # contact candidates) differs from theirs, checked every 20 steps.
 python3 - "$scene" "$work/rebalance.json" <<'EOF'
