@@ -18,7 +18,8 @@
 //
 // Neighbour search: a Verlet list with a skin (components/contact.hpp, ContactPairs). The list holds,
 // per particle, the unbonded particles within reach = largest d_c + skin. Positions are measured from
-// the centroid c of all particles (a common translation changes no distance), z_i = y_i − c. Each
+// the centroid c of the owned particles (all of them in one process; a common translation changes no
+// distance), z_i = y_i − c. Each
 // particle remembers z_i at its own last search, and only a particle that has moved more than
 // h = 0.3 skin (kMoveLimit) from there is searched again ("moved"), with its pairs re-decided on both
 // sides; the whole list is rebuilt only at the start or when more than 1/8 of the particles moved
@@ -58,6 +59,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "contact_law.hpp"
 #include "huge_pages.hpp"
@@ -132,14 +134,17 @@ PairUpdate pair_update_needed(WorldState& w, std::uint64_t& broken_now, Vec3& ce
   const auto& y = w.particles.position;
   // parallel_deterministic_reduce splits and joins the same way for any thread count (and, unlike
   // deterministic_sum, allocates nothing).
+  // Over the owned particles: in a distributed run's local world the ghosts come and go with each
+  // refresh, and a centroid over them would jump and mark every particle moved (one process: all).
+  const std::size_t first = std::min<std::size_t>(w.owned_first, n), last = std::min<std::size_t>(w.owned_last, n);
   centroid = tbb::parallel_deterministic_reduce(
-                 tbb::blocked_range<std::size_t>(0, n, 4096), Vec3(Vec3::Zero()),
+                 tbb::blocked_range<std::size_t>(first, last, 4096), Vec3(Vec3::Zero()),
                  [&](const tbb::blocked_range<std::size_t>& r, Vec3 acc) {
                    for (std::size_t i = r.begin(); i != r.end(); ++i) acc += y[i];
                    return acc;
                  },
                  [](const Vec3& a, const Vec3& b) { return Vec3(a + b); }) /
-             double(std::max<std::size_t>(n, 1));
+             double(std::max<std::size_t>(last - first, 1));
   if (!pr.valid) return PairUpdate::rebuild;
   const double limit = kMoveLimit * pr.skin, limit2 = limit * limit;
   const Vec3 c = centroid;
@@ -432,9 +437,44 @@ void setup_contact(WorldState& w, double largest_distance) {
   allocate_pairs(w);
 }
 
-void resize_contact(WorldState& w) {
+void replace_contact_tail(WorldState& w, std::size_t kept) {
   size_particles(w);
-  if (w.contact.enabled) allocate_pairs(w);
+  auto& c = w.contact;
+  auto& pr = c.pairs;
+  if (!c.enabled) return;
+  if (!pr.valid) {  // nothing built yet: plain buffers for the new count
+    allocate_pairs(w);
+    return;
+  }
+  const std::size_t n_old = pr.offsets.size() - 1, n = w.particles.count();
+  // The rows of the kept particles without their pairs beyond `kept`; empty rows for the new ones.
+  pr.offsets_next.resize(n + 1);
+  pr.neighbor_next.resize(pr.neighbor.size());
+  std::uint32_t q = 0;
+  for (std::size_t i = 0; i < std::min(kept, n_old); ++i) {
+    pr.offsets_next[i] = q;
+    for (std::uint32_t r = pr.offsets[i]; r < pr.offsets[i + 1]; ++r)
+      if (pr.neighbor[r] < kept) pr.neighbor_next[q++] = pr.neighbor[r];
+  }
+  for (std::size_t i = std::min(kept, n_old); i <= n; ++i) pr.offsets_next[i] = q;
+  pr.neighbor_next.resize(q);
+  std::swap(pr.offsets, pr.offsets_next);
+  std::swap(pr.neighbor, pr.neighbor_next);
+  pr.offsets_next.assign(n + 1, 0);
+  // Per-particle buffers for n; a new particle's search position is NaN, which counts as moved, so the
+  // next step searches it (update_moved_pairs) and writes its pairs on both sides.
+  pr.count.assign(n, 0);
+  pr.moved.assign(n, 0);
+  pr.found_by.assign(n, 0);
+  pr.moved_offsets.assign(n + 1, 0);
+  pr.moved_list.reserve(n);
+  pr.built_position.resize(n, Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
+  for (std::size_t i = kept; i < n; ++i) pr.built_position[i] = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  pr.broken_seen.resize(n);
+  for (std::size_t i = kept; i < n; ++i) pr.broken_seen[i] = w.state.broken_bonds[i];
+  pr.scratch.resize(n * ContactPairs::kScratchPerParticle);
+  pr.bonded_stamp.assign(pr.stamp_slots * n, 0);  // every mark below stamp_base: none matches a later pass
+  allocate_grid(c.grid, n, c.largest_distance + pr.skin);
 }
 
 

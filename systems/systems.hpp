@@ -37,9 +37,11 @@ double strength_noise(const Vec3& x, double feature_size, std::uint64_t seed);  
 // list's reach and skin must be the whole world's); 0: this world's own.
 void setup_contact(WorldState& world, double largest_distance = 0.0);
 void setup_projectiles(WorldState& world);
-// Re-sizes the contact and projectile buffers after the particle count changed (a distributed run's
-// contact ghosts come and go) and drops the pair list; the settings and largest distance stay.
-void resize_contact(WorldState& world);
+// A distributed run's contact-ghost refresh replaced the particles from `kept` on (engine/distributed/
+// local_world.cpp): keeps the pair list's pairs among the first `kept` particles, drops those with the
+// others, sizes the buffers for the new count and has the next step search the new particles (an
+// update of the list, not a full rebuild); the settings and largest distance stay.
+void replace_contact_tail(WorldState& world, std::size_t kept);
 void resize_projectiles(WorldState& world);
 // embedded_mesh.cpp: WorldState::embedded from WorldState::mesh, its face adjacency and the bonds
 // (after initial cracks: face pairs without a bond start as crack faces). Run after the bonds exist.

@@ -319,7 +319,7 @@ void set_contact_ghosts(WorldState& local, LocalLayout& layout,
     e.held_fits.resize(n, 0);
     e.held_broken_seen.resize(n, 0);
   }
-  systems::resize_contact(local);
+  systems::replace_contact_tail(local, base);
   systems::resize_projectiles(local);
 }
 
