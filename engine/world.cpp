@@ -94,15 +94,7 @@ void World::rebalance() {
   gather();
   impl_->runtime->broadcast_world(*impl_->state);
   impl_->earlier_times = system_times();
-  const distributed::RankShare before = impl_->runtime->share();
-  auto& carried = impl_->carried;
-  carried.halo_bytes += before.halo_bytes;
-  carried.steps += before.steps;
-  carried.contact_ghost_refreshes += before.contact_ghost_refreshes;
-  carried.list_builds += before.list_builds;
-  carried.list_additions += before.list_additions;
-  carried.list_partial_updates += before.list_partial_updates;
-  carried.list_searched += before.list_searched;
+  impl_->carried.add_totals(impl_->runtime->share());
   impl_->runtime.reset();
   split(&domains);
   if (impl_->profiling) impl_->runtime->scheduler().set_profiling(true);
@@ -342,13 +334,12 @@ std::vector<RankStats> World::rank_stats() {
     one.contact = contact_counters();
     return {one};
   }
-  const distributed::RankShare now = impl_->runtime->share(), &c = impl_->carried;
+  distributed::RankShare now = impl_->runtime->share();
+  now.add_totals(impl_->carried);
   const std::vector<double> mine = {double(now.owned), double(now.bond_ghosts), double(now.contact_ghosts),
-                                    double(now.halo_bytes + c.halo_bytes), double(now.steps + c.steps),
-                                    double(now.contact_ghost_refreshes + c.contact_ghost_refreshes),
-                                    double(now.list_builds + c.list_builds), double(now.list_additions + c.list_additions),
-                                    double(now.list_partial_updates + c.list_partial_updates),
-                                    double(now.list_searched + c.list_searched)};
+                                    double(now.halo_bytes), double(now.steps), double(now.contact_ghost_refreshes),
+                                    double(now.list_builds), double(now.list_additions),
+                                    double(now.list_partial_updates), double(now.list_searched)};
   std::vector<double> all = impl_->runtime->gather_values(mine);  // counts < 2^53: exact in doubles
   if (all.empty()) all = mine;  // ranks other than 0: their own
   std::vector<RankStats> out(all.size() / mine.size());

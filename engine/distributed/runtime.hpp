@@ -75,6 +75,17 @@ struct RankShare {
   std::uint64_t contact_ghost_refreshes = 0;
   // Its own contact pair list's counters (systems/contact.cpp).
   std::uint64_t list_builds = 0, list_additions = 0, list_partial_updates = 0, list_searched = 0;
+
+  // Adds `other`'s running totals (traffic, steps, refreshes, list counters), not its counts of now.
+  void add_totals(const RankShare& other) {
+    halo_bytes += other.halo_bytes;
+    steps += other.steps;
+    contact_ghost_refreshes += other.contact_ghost_refreshes;
+    list_builds += other.list_builds;
+    list_additions += other.list_additions;
+    list_partial_updates += other.list_partial_updates;
+    list_searched += other.list_searched;
+  }
 };
 
 class Runtime {
