@@ -56,6 +56,9 @@ struct DerivedFields {
   // largest part; the other parts get ids never used before (from next_fragment_id on).
   std::vector<std::uint32_t> fragment_id;
   std::vector<std::uint32_t> fragment_root;  // scratch: smallest particle index of i's component
+  // The step fragment_root was last given for by a distributed run's gather (engine/distributed/pieces.hpp,
+  // found by the ranks together); at that step update_piece_ids reads it instead of finding it again.
+  std::uint64_t fragment_root_step = ~std::uint64_t{0};
   std::vector<std::uint32_t> fragment_size;  // scratch: per root, the component's particle count
   std::vector<std::uint32_t> fragment_keep;  // scratch: per old id, the root of the part that keeps it
   std::uint32_t next_fragment_id = 0;        // first id not yet used (starts at the particle count)

@@ -9,6 +9,9 @@
 // gets next_fragment_id++ (starting at the particle count, so never an id used before), handed out in
 // increasing root order. Ids thus depend on the alive bonds at the steps they were requested at (one
 // request per output frame in a run), never on the thread count: everything here is serial.
+// A distributed run's rank 0 is handed the roots, found by all ranks from their own bonds
+// (engine/distributed/pieces.hpp), with the step they hold for (derived.fragment_root_step); the ids are
+// then given here as above, from the same roots.
 // Reads: bond_alive.   Writes: derived (fragment_id, its scratch arrays, counts).
 #include "field_registry.hpp"
 #include "systems.hpp"
@@ -32,7 +35,12 @@ std::size_t compute_fragments(const WorldState& w, std::vector<std::uint32_t>& i
 std::size_t update_piece_ids(WorldState& w) {
   DerivedFields& d = w.derived;
   const std::size_t n = w.particles.count();
-  const std::size_t count = compute_fragments(w, d.fragment_root);
+  std::size_t count = 0;
+  if (d.fragment_root_step == w.clock.step && d.fragment_root.size() == n) {  // given by the ranks
+    for (std::uint32_t i = 0; i < n; ++i) count += d.fragment_root[i] == i;
+  } else {
+    count = compute_fragments(w, d.fragment_root);
+  }
   constexpr std::uint32_t kNone = 0xFFFFFFFFu;
   if (d.fragment_id.size() != n) {  // first request: ids are the roots
     d.fragment_id = d.fragment_root;

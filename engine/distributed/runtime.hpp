@@ -13,7 +13,9 @@
 // every rank records at which step each of its bonds broke, and gather() first replays, on rank 0, the
 // crack faces and vertex splits of every step since the last gather (systems/crack_faces.cpp and
 // mesh_split.cpp read only the bond states and the mesh), then gathers the held rotations the local
-// worlds stepped. The surfaces are then those of one process, bit for bit.
+// worlds stepped. The surfaces are then those of one process, bit for bit. The pieces are found by all
+// ranks together, each from its own bonds (pieces.hpp), and rank 0 receives every particle's piece root
+// (derived.fragment_root) and gives the stable ids from it (systems/fragments.cpp).
 #pragma once
 #include <algorithm>
 #include <cstdint>

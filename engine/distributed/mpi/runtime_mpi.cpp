@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "distributed/local_world.hpp"
+#include "distributed/pieces.hpp"
 #include "distributed/runtime.hpp"
 #include "scheduler.hpp"
 #include "systems/bond_rules.hpp"
@@ -66,7 +67,7 @@ void gather_slices(const T* mine, std::size_t count, T* target, int rank, int ra
   }
 }
 
-enum Tag : int { kTagMotion = 11, kTagDilatation = 12, kTagThreshold = 13, kTagGather = 20 };
+enum Tag : int { kTagMotion = 11, kTagDilatation = 12, kTagThreshold = 13, kTagPieces = 14, kTagGather = 20 };
 
 // Per rank, one link holding a's particles then b's (both lists of links ordered by rank).
 std::vector<HaloLink> merge_links(const std::vector<HaloLink>& a, const std::vector<HaloLink>& b) {
@@ -253,6 +254,32 @@ struct Runtime::Impl {
       const double* in = receive_buf[q].data();
       for (std::size_t m = 0; m < link.local.size(); ++m) unpack(link.local[m], in + m * w);
     }
+  }
+
+  // The pieces (pieces.hpp): local components, then rounds of labels over the bond links, owners to
+  // ghosts, until no rank lowers a label. Collective. Labels travel as doubles (exact below
+  // 2^53) in the θ halo's buffers; the traffic is not counted in halo_bytes, which is the step's.
+  PieceLabels pieces;
+  std::vector<std::uint32_t> owned_roots;
+  std::uint64_t piece_rounds = 0;  // rounds of the last find_pieces
+  void find_pieces() {
+    label_local_pieces(*local, layout, pieces);
+    const std::uint64_t step_bytes = halo_bytes;
+    auto pack = [&](std::uint32_t i, double* out) { out[0] = piece_label(pieces, i); };
+    int lowered = 0;
+    auto unpack = [&](std::uint32_t i, const double* in) {
+      lowered |= lower_piece_label(pieces, i, static_cast<std::uint32_t>(in[0])) ? 1 : 0;
+    };
+    for (piece_rounds = 1;; ++piece_rounds) {
+      lowered = 0;
+      exchange(layout.sends, layout.receives, send_buffer, receive_buffer, 1, kTagPieces, pack, unpack);
+      int any = 0;
+      check(MPI_Allreduce(&lowered, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD), "allreduce");
+      if (any == 0) break;
+    }
+    halo_bytes = step_bytes;
+    owned_roots.resize(layout.owned_count);
+    owned_piece_roots(pieces, layout, owned_roots.data());
   }
 
   // The motion links and their buffers, from the bond links and the current contact ghosts.
@@ -555,6 +582,12 @@ void Runtime::gather(WorldState& full) {
   gather_bonds(w.bonds.alive, full.bonds.alive);
   gather_bonds(w.bonds.plastic_extension, full.bonds.plastic_extension);
   gather_bonds(w.bonds.plastic_extension_mirror, full.bonds.plastic_extension_mirror);
+  // The pieces, found by every rank from its own bonds; rank 0 gives the stable ids from these roots.
+  m.find_pieces();
+  if (layout.rank == 0) full.derived.fragment_root.resize(full.particles.count());
+  gather_slices(m.owned_roots.data(), m.owned_roots.size(), full.derived.fragment_root.data(), layout.rank,
+                layout.ranks, kTagGather, particles_of);
+  full.derived.fragment_root_step = w.clock.step;
 }
 
 }  // namespace perifx::distributed

@@ -9,10 +9,12 @@
 #include <filesystem>
 
 #include "distributed/local_world.hpp"
+#include "distributed/pieces.hpp"
 #include "perifx/world.hpp"
 #include "perifx/scene.hpp"
 #include "systems/bond_rules.hpp"
 #include "systems/pipeline.hpp"
+#include "systems/systems.hpp"
 
 using namespace perifx;
 
@@ -258,5 +260,92 @@ TEST_CASE("local worlds: owned rows are the global rows, ghosts are exactly the 
     // Boundary lists hold owned particles only.
     for (std::uint32_t i : w->boundary.constrained)
       CHECK((i >= layout.owned_begin && i < layout.owned_begin + layout.owned_count));
+  }
+}
+
+TEST_CASE("local worlds: the pieces the ranks find together are the one-process components") {
+  // The tearing plate cut into 5 × 5 blocks across its bounding box: a bond between two blocks is
+  // kept only when a hash of the block pair says so (1 pair in 4), and inside a block a hash of
+  // the particle pair kills 1 bond in 3. Both directions of a bond alike, as in a run. That leaves
+  // pieces of several blocks, some spread over several ranks. The ranks' labels are copied in memory
+  // as the runtime sends them (owners to the ranks holding the particle as a ghost), round after round;
+  // a second direction is not needed (engine/distributed/pieces.hpp says why) and is not sent.
+  World source(scene::load_scene_file(kTear));
+  WorldState full = source.state();
+  const auto& x = full.particles.reference_position;
+  Vec3 lo = x[0], hi = x[0];
+  for (const Vec3& p : x) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  auto block = [&](std::uint32_t i) {
+    const Vec3 c = ((x[i] - lo).array() / (hi - lo).array().max(1e-12) * 4.999).floor();
+    return static_cast<std::uint64_t>(c.x() + 5 * c.y());
+  };
+  auto hash = [](std::uint64_t a, std::uint64_t b) {
+    std::uint64_t h = (std::min(a, b) << 32 | std::max(a, b)) * 0x9E3779B97F4A7C15ull;
+    return h ^ (h >> 29);
+  };
+  for (std::uint32_t i = 0; i < full.particles.count(); ++i)
+    for (std::uint32_t k = full.bonds.offsets[i]; k < full.bonds.offsets[i + 1]; ++k) {
+      const std::uint32_t j = full.bonds.neighbor[k];
+      const std::uint64_t bi = block(i), bj = block(j);
+      full.bonds.alive[k] = bi == bj ? hash(i, j) % 3 != 0 : hash(bi, bj) % 4 == 0;
+    }
+  std::vector<std::uint32_t> expected;
+  const std::size_t pieces = systems::compute_fragments(full, expected);
+  MESSAGE(pieces << " pieces among " << full.particles.count() << " particles");
+  REQUIRE(pieces >= 4);
+  for (int count : {2, 3, 4}) {
+    CAPTURE(count);
+    const auto domains = distributed::split_by_work(full, count);
+    std::vector<distributed::LocalLayout> layouts(static_cast<std::size_t>(count));
+    std::vector<std::unique_ptr<WorldState>> worlds;
+    std::vector<distributed::PieceLabels> labels(layouts.size());
+    for (std::size_t r = 0; r < layouts.size(); ++r) {
+      layouts[r] = distributed::make_layout(full, domains, static_cast<int>(r));
+      worlds.push_back(distributed::make_local_world(full, layouts[r]));
+      distributed::label_local_pieces(*worlds[r], layouts[r], labels[r]);
+    }
+    // One direction of a round: every link's values from `from_links` land on `to_links` of the peer.
+    auto send = [&](auto from_links, auto to_links) {
+      bool lowered = false;
+      std::vector<std::vector<std::uint32_t>> packed(layouts.size());
+      for (std::size_t r = 0; r < layouts.size(); ++r)  // pack first, as the runtime does before it receives
+        for (const auto& link : layouts[r].*from_links)
+          for (std::uint32_t i : link.local) packed[r].push_back(distributed::piece_label(labels[r], i));
+      for (std::size_t r = 0; r < layouts.size(); ++r) {
+        std::size_t at = 0;
+        for (const auto& link : layouts[r].*from_links) {
+          const auto& peer = layouts[static_cast<std::size_t>(link.rank)];
+          for (const auto& back : peer.*to_links)
+            if (back.rank == static_cast<int>(r)) {
+              REQUIRE(back.local.size() == link.local.size());
+              for (std::size_t m = 0; m < link.local.size(); ++m)
+                lowered = distributed::lower_piece_label(labels[static_cast<std::size_t>(link.rank)], back.local[m],
+                                                         packed[r][at + m]) || lowered;
+            }
+          at += link.local.size();
+        }
+      }
+      return lowered;
+    };
+    int rounds = 1;
+    while (send(&distributed::LocalLayout::sends, &distributed::LocalLayout::receives)) ++rounds;
+    MESSAGE(count << " ranks: " << rounds << " rounds");
+    CHECK(rounds >= 2);  // some piece lies on two ranks
+    std::size_t wrong = 0, spread = 0;
+    for (std::size_t r = 0; r < layouts.size(); ++r) {
+      const auto& l = layouts[r];
+      std::vector<std::uint32_t> roots(l.owned_count);
+      distributed::owned_piece_roots(labels[r], l, roots.data());
+      const std::uint32_t first = domains[r].first;
+      for (std::uint32_t m = 0; m < l.owned_count; ++m) {
+        wrong += roots[m] != expected[first + m];
+        spread += roots[m] < first;  // its piece reaches into a lower rank's range
+      }
+    }
+    CHECK(wrong == 0);
+    CHECK(spread > 0);
   }
 }
