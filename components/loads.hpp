@@ -13,12 +13,17 @@ namespace perifx {
 // The boundary faces of the reference tet mesh, as patches owned by particles, CSR by particle.
 // Peridynamics: a boundary face is one patch of its tet's particle. FEM (particles = vertices): each
 // face gives one patch per corner, a third of its area; a traction with a depth adds layer shares.
+// Built when a surface load or a projectile needs them (empty otherwise): the loads push on them, and
+// a projectile meets a body's surface at its faces (systems/projectiles.cpp).
 struct SurfacePatches {
   std::vector<std::uint32_t> offsets;  // particle count + 1; patches of i: [offsets[i], offsets[i+1])
   std::vector<double> area;            // m²
   std::vector<Vec3> normal;            // outward unit normal (reference orientation)
   std::vector<Vec3> offset;            // patch point − particle reference position, m (the load is
                                        // evaluated at current position + offset)
+  std::vector<double> radius;          // a whole face of a peridynamic body: its largest centroid-to-
+                                       // corner distance, m (a disc around the point that covers the
+                                       // face); 0 for the FEM corner thirds and the layer shares
 };
 
 // The scene's loads, each with the particles it acts on (sorted) and, for surface loads, the

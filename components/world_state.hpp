@@ -101,7 +101,7 @@ struct WorldState {
   FemModel fem;                   // FEM mode only (systems/fem_setup.cpp, fem_force.cpp)
   std::vector<BodyInfo> bodies;
   BoundaryConditionSet boundary;
-  SurfacePatches surface;         // boundary faces of the reference mesh (surface loads)
+  SurfacePatches surface;         // boundary faces of the reference mesh (surface loads, projectiles)
   LoadSet loads;                  // external loads beyond gravity (systems/external_loads.cpp)
   DerivedFields derived;
   ContactState contact;           // particle–particle contact (systems/contact.cpp)
@@ -246,6 +246,7 @@ void for_each_array(W& w, F&& f) {
   f(K::other, "surface.area", w.surface.area);
   f(K::other, "surface.normal", w.surface.normal);
   f(K::other, "surface.offset", w.surface.offset);
+  f(K::other, "surface.radius", w.surface.radius);
   for (auto& list : w.loads.particles) f(K::other, "loads.particles", list);
   for (auto& list : w.loads.patch_offsets) f(K::other, "loads.patch_offsets", list);
   for (auto& list : w.loads.patches) f(K::other, "loads.patches", list);

@@ -4,9 +4,19 @@
 //   projectile_contact: forces, then a ← F/M + g,  α ← τ/I,  v ← v + (dt/2) a,  ω ← ω + (dt/2) α
 // Contact: particle i is in contact with sphere (c, R) when |y_i − c| < R + d_c,i/2, with
 // d_c,i = distance_factor·∛V_i (the particle's half of the particle–particle contact distance, so a
-// sphere touches particles the way a body surface does). With n = (y_i − c)/|y_i − c|, penetration
-// g = R + d_c,i/2 − |y_i − c| and the relative velocity of the particle against the sphere surface
-// (v_s = v_c + ω × R n):
+// sphere touches particles the way a body surface does): penetration g = R + d_c,i/2 − |y_i − c|
+// along n = (y_i − c)/|y_i − c|. A particle whose tet has original boundary faces is also touched
+// through each, a disc moved with the particle's displacement (WorldState::surface, set up as the
+// surface loads' patches; the disc covers the face):
+// g = R − |p − c| along n = (p − c)/|p − c|, p the disc's point nearest c, when c is outside the face.
+// The deeper of the two counts. Why: the particle's sphere of reach lies a resolution-dependent
+// distance inside or outside the body's surface, and under the sphere's pole the nearest particle can
+// be half a cell off to the side, so a coarse body was first touched later than a fine one (the glass
+// walls' 0.05 m preview 33 µs later than the full scene at 60 m/s, 2 mm of travel; accuracy.md 12.5).
+// The discs cover the mesh surface, so an intact flat face is touched when the sphere reaches it, at
+// any resolution. A rotated piece's disc is only translated, not turned: off by at most the tet's
+// size, the error the sphere of reach has anyway. With the relative velocity of the particle against
+// the sphere surface (v_s = v_c + ω × R n):
 //   f_n = max(0, k g − c_d v_n),  k = stiffness_factor·m_i/dt²,  c_d = 2ζ√(k m_ip), m_ip = m_i M/(m_i + M)
 //   friction f_t = min(μ f_n, ¼ m_ip |v_t|/dt) against the sliding,
 // from the scene's contact settings (contact.cpp explains the stiffness choice; the law is
@@ -18,6 +28,7 @@
 // Projectiles do not touch each other or the kinematic colliders.
 // projectile_drift    reads time;                               writes projectiles.
 // projectile_contact  reads position, velocity, flags;           writes projectiles, contact_force.
+// (Static set-up data also read: mass, contact size, the surface patches.)
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -83,6 +94,8 @@ SystemDecl projectile_contact_system(WorldState& w, const std::function<void(std
             const double inv_dt = 1.0 / dt, inv_dt2 = inv_dt * inv_dt;
             // Particle–particle contact wrote contact_force this step when it is on; otherwise it is ours.
             const bool add = c.enabled;
+            const SurfacePatches& sf = w.surface;
+            const bool faces = w.settings.solver == scene::Solver::peridynamics && !sf.radius.empty();
             parallel_for_each(n, [&](std::size_t i) {
               set.touched[i] = 0;
               if (!w.owns(i)) return;  // a ghost: its owner computes its contacts
@@ -90,6 +103,15 @@ SystemDecl projectile_contact_system(WorldState& w, const std::function<void(std
               const Vec3 yi = p.position[i];
               const double mi = p.mass[i];
               const double reach = 0.5 * c.distance_factor * c.size[i];
+              // i's boundary faces (none for interior particles, and none in FEM worlds).
+              std::uint32_t face_begin = 0, face_end = 0;
+              double far = reach;
+              if (faces) {
+                face_begin = sf.offsets[i];
+                face_end = sf.offsets[i + 1];
+                for (std::uint32_t q = face_begin; q < face_end; ++q)
+                  far = std::max(far, sf.offset[q].norm() + sf.radius[q]);
+              }
               for (std::size_t k = 0; k < np; ++k) {
                 const Projectile& pr = set.bodies[k];
                 Vec3& f_out = set.particle_force[i * np + k];
@@ -97,19 +119,50 @@ SystemDecl projectile_contact_system(WorldState& w, const std::function<void(std
                 const Vec3 r = yi - pr.center;
                 const double d2 = r.squaredNorm();
                 const double contact = pr.radius + reach;
-                if (d2 >= contact * contact) {
+                const double bound = pr.radius + far;
+                if (d2 >= bound * bound) {
                   f_out = Vec3::Zero();
                   t_out = Vec3::Zero();
                   continue;
                 }
-                const double d = std::sqrt(d2);
-                const Vec3 nrm = d > 0.0 ? Vec3(r / d) : Vec3(Vec3::UnitY());
+                // The particle's sphere of reach, and its boundary faces (discs, moved with the
+                // particle's displacement): the deeper penetration of the two, along its direction.
+                double penetration = 0.0;
+                Vec3 nrm = Vec3::UnitY();
+                if (d2 < contact * contact) {
+                  const double d = std::sqrt(d2);
+                  penetration = contact - d;
+                  if (d > 0.0) nrm = r / d;
+                }
+                for (std::uint32_t q = face_begin; q < face_end; ++q) {
+                  const double radius = sf.radius[q];
+                  if (radius == 0.0) continue;  // a layer share of a traction, not a face
+                  const Vec3 centre = yi + sf.offset[q];
+                  const Vec3& normal = sf.normal[q];
+                  const Vec3 rel = pr.center - centre;
+                  const double height = rel.dot(normal);
+                  if (!(height > 0.0)) continue;  // the sphere's centre is not outside the face
+                  Vec3 lateral = rel - height * normal;
+                  const double spread = lateral.norm();
+                  if (spread > radius) lateral *= radius / spread;
+                  const Vec3 to_face = centre + lateral - pr.center;  // sphere centre → nearest disc point
+                  const double gap = to_face.norm();
+                  if (pr.radius - gap > penetration && gap > 0.0) {
+                    penetration = pr.radius - gap;
+                    nrm = to_face / gap;
+                  }
+                }
+                if (!(penetration > 0.0)) {
+                  f_out = Vec3::Zero();
+                  t_out = Vec3::Zero();
+                  continue;
+                }
                 const Vec3 arm = pr.radius * nrm;
                 const double m_pair = mi * pr.mass / (mi + pr.mass);
                 const double kk = c.stiffness_factor * mi * inv_dt2;
                 const Vec3 vrel = p.velocity[i] - (pr.velocity + pr.angular_velocity.cross(arm));
                 const ContactForce cf =
-                    contact_force(contact - d, nrm, vrel, kk, m_pair, c.damping_ratio, pr.friction, inv_dt);
+                    contact_force(penetration, nrm, vrel, kk, m_pair, c.damping_ratio, pr.friction, inv_dt);
                 Vec3 f = cf.normal * nrm;
                 if (cf.sliding) f -= cf.friction;
                 f_out = f;

@@ -168,6 +168,7 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
     s.area.assign(fs.area.begin() + patch_first, fs.area.begin() + patch_last);
     s.normal.assign(fs.normal.begin() + patch_first, fs.normal.begin() + patch_last);
     s.offset.assign(fs.offset.begin() + patch_first, fs.offset.begin() + patch_last);
+    s.radius.assign(fs.radius.begin() + patch_first, fs.radius.begin() + patch_last);
   }
 
   // Loads: particle lists restricted to the owned particles, with their patch rows.

@@ -316,7 +316,8 @@ Key build_spec() {
 
   Key projectile = nested("projectiles", Type::array, "projectile",
       "Rigid projectiles with mass, integrated like the particles (gravity applies); they push particles "
-      "within radius + d_c/2 with the contact spring (contact's stiffness_factor and damping_ratio) and "
+      "within radius + d_c/2, and the body's boundary faces they reach (so a body is touched at its mesh "
+      "surface at any resolution), with the contact spring (contact's stiffness_factor and damping_ratio) and "
       "receive the opposite force. Their state is written per frame to projectiles.csv.", {
       choice("type", {"sphere"}, "Shape.").req(),
       vec3("center", "Initial center, m.").req(),

@@ -1,5 +1,6 @@
 // Load setup: the boundary faces of the reference tet mesh as surface patches of their particles
-// (components/loads.hpp), and for each scene load the particles and patches it acts on. Regions are
+// (components/loads.hpp; also built for projectiles, which meet a body at these faces), and for each
+// scene load the particles and patches it acts on. Regions are
 // tested once, on reference positions: a surface load takes the boundary faces whose centroid lies in
 // its region, a body load the particles whose reference position does. A traction with a `depth`
 // shares each face's force among the particles under it (spread_in_layer): those shares are patches
@@ -17,6 +18,7 @@ struct Patch {
   std::uint32_t particle;
   double area;
   Vec3 normal, point, centroid;  // point: where the load is evaluated; centroid: the region test
+  double radius = 0.0;           // whole faces of peridynamic bodies: centroid to farthest corner
 };
 
 // Every boundary face of the reference mesh, as patches in particle order (faces of one particle in
@@ -44,7 +46,8 @@ std::vector<Patch> boundary_patches(const WorldState& w, bool fem) {
       n.normalize();
       if (n.dot(mesh.vertices[mesh.tets[t][static_cast<std::size_t>(k)]] - centroid) > 0.0) n = -n;
       if (!fem) {
-        out.push_back({static_cast<std::uint32_t>(t), area, n, centroid, centroid});
+        const double radius = std::max({(v[0] - centroid).norm(), (v[1] - centroid).norm(), (v[2] - centroid).norm()});
+        out.push_back({static_cast<std::uint32_t>(t), area, n, centroid, centroid, radius});
         continue;
       }
       // FEM: a third of the face per corner, evaluated at the centroid of that corner's third
@@ -122,7 +125,9 @@ void resolve_loads(const std::vector<scene::Load>& loads, WorldState& w) {
   set.particles.resize(loads.size());
   set.patch_offsets.resize(loads.size());
   set.patches.resize(loads.size());
-  const bool any_surface = std::any_of(loads.begin(), loads.end(), [](const auto& l) { return surface_load(l.kind); });
+  // The faces are built for surface loads, and for projectiles in peridynamic worlds.
+  const bool any_surface = std::any_of(loads.begin(), loads.end(), [](const auto& l) { return surface_load(l.kind); }) ||
+                           (!fem && !w.settings.projectiles.empty());
   // The boundary faces, then the layer shares of tractions with a depth; each load's patches.
   std::vector<Patch> all;
   if (any_surface) all = boundary_patches(w, fem);
@@ -159,6 +164,7 @@ void resolve_loads(const std::vector<scene::Load>& loads, WorldState& w) {
     s.area.push_back(q.area);
     s.normal.push_back(q.normal);
     s.offset.push_back(q.point - p.reference_position[q.particle]);
+    s.radius.push_back(q.radius);
   }
   for (std::size_t i = 0; any_surface && i < n; ++i) s.offsets[i + 1] += s.offsets[i];
 

@@ -3,6 +3,8 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 #include "support.hpp"
 
@@ -304,4 +306,52 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
   CHECK(duplicated == 0);
   CHECK(w.contact.pairs.builds > 1);           // full rebuilds (the half search) after the first
   CHECK(w.contact.pairs.partial_updates > 0);  // the moved-particle update was exercised
+}
+
+TEST_CASE("a projectile first touches a body where its mesh surface is, at any resolution") {
+  // A 0.2 x 0.2 x 0.1 m block (top face at z = 0.05) at 2, 4 and 8 cells through its depth; a sphere of
+  // radius 4 cm comes down at 10 m/s from 4.05 mm above the top face (mid-step: 40.5 steps of dt = 1e-5 s),
+  // its pole over (13, 7) mm (no
+  // symmetry with the grid). The sphere moves at constant speed until it touches (no gravity), so the
+  // first step whose contact force is nonzero is the first n with c_z(n) − R < 0.05: n = ⌊g/(v dt)⌋ + 1.
+  // The boundary-face discs (systems/projectiles.cpp) cover the top face, so that n holds at every
+  // resolution. Control: the step at which the particles' spheres of reach alone would first be touched,
+  // computed here from the particles, is far off at 2 cells (the test would fail without the discs).
+  const double radius = 0.04, gap = 0.00405, speed = 10.0, dt = 1e-5;
+  const double lateral_x = 0.013, lateral_y = 0.007;
+  const long expected = static_cast<long>(std::floor(gap / (speed * dt))) + 1;
+  for (double cell : {0.05, 0.025, 0.0125}) {
+    CAPTURE(cell);
+    auto sc = test::box_scene(Vec3(0.2, 0.2, 0.1), cell, kKappa, kMu, kRho);
+    sc.time.dt = dt;
+    scene::Projectile pr;
+    pr.radius = radius;
+    pr.mass = 7800.0 * 4.0 / 3.0 * kPi * radius * radius * radius;
+    pr.center = Vec3(lateral_x, lateral_y, 0.05 + radius + gap);
+    pr.velocity = Vec3(0.0, 0.0, -speed);
+    sc.projectiles.push_back(pr);
+    World world(sc);
+    const auto& st = world.state();
+    REQUIRE(st.surface.offsets.size() == world.particle_count() + 1);  // the faces are set up for projectiles
+    // The reach-only first touch, from the particles at rest.
+    long reach_step = std::numeric_limits<long>::max();
+    for (std::size_t i = 0; i < world.particle_count(); ++i) {
+      const Vec3 x = st.particles.reference_position[i];
+      const double reach = 0.5 * st.contact.distance_factor * st.contact.size[i];
+      const double across2 = (x.x() - lateral_x) * (x.x() - lateral_x) + (x.y() - lateral_y) * (x.y() - lateral_y);
+      const double span2 = (radius + reach) * (radius + reach) - across2;
+      if (span2 <= 0.0) continue;
+      const double centre_z = x.z() + std::sqrt(span2);  // the sphere's centre height at first touch
+      reach_step = std::min(reach_step, static_cast<long>(std::floor((pr.center.z() - centre_z) / (speed * dt))) + 1);
+    }
+    long touched = -1;
+    for (long n = 1; n <= 2 * expected && touched < 0; ++n) {
+      world.step();
+      if (st.projectiles.bodies[0].contact_force.norm() > 0.0) touched = n;
+    }
+    MESSAGE("cell " << cell << ": first touch at step " << touched << ", surface " << expected
+                    << ", spheres of reach alone " << reach_step);
+    CHECK(touched == expected);
+    if (cell == 0.05) CHECK(std::abs(reach_step - expected) > 5);
+  }
 }
