@@ -261,7 +261,6 @@ struct Runtime::Impl {
   // 2^53) in the θ halo's buffers; the traffic is not counted in halo_bytes, which is the step's.
   PieceLabels pieces;
   std::vector<std::uint32_t> owned_roots;
-  std::uint64_t piece_rounds = 0;  // rounds of the last find_pieces
   void find_pieces() {
     label_local_pieces(*local, layout, pieces);
     const std::uint64_t step_bytes = halo_bytes;
@@ -270,7 +269,7 @@ struct Runtime::Impl {
     auto unpack = [&](std::uint32_t i, const double* in) {
       lowered |= lower_piece_label(pieces, i, static_cast<std::uint32_t>(in[0])) ? 1 : 0;
     };
-    for (piece_rounds = 1;; ++piece_rounds) {
+    for (;;) {
       lowered = 0;
       exchange(layout.sends, layout.receives, send_buffer, receive_buffer, 1, kTagPieces, pack, unpack);
       int any = 0;
