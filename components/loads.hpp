@@ -3,6 +3,7 @@
 // setup on the reference configuration (engine/setup/loads.cpp), so the step only walks index lists.
 #pragma once
 #include <cstdint>
+#include <array>
 #include <vector>
 
 #include "components/math.hpp"
@@ -13,8 +14,9 @@ namespace perifx {
 // The boundary faces of the reference tet mesh, as patches owned by particles, CSR by particle.
 // Peridynamics: a boundary face is one patch of its tet's particle. FEM (particles = vertices): each
 // face gives one patch per corner, a third of its area; a traction with a depth adds layer shares.
-// Built when a surface load or a projectile needs them (empty otherwise): the loads push on them, and
-// a projectile meets a body's surface at its faces (systems/projectiles.cpp).
+// Built when a surface load, a projectile or a collider needs them (empty otherwise): the loads push
+// on them, and projectiles and colliders meet a body's surface at its faces (systems/projectiles.cpp,
+// systems/colliders.cpp).
 struct SurfacePatches {
   std::vector<std::uint32_t> offsets;  // particle count + 1; patches of i: [offsets[i], offsets[i+1])
   std::vector<double> area;            // m²
@@ -24,6 +26,8 @@ struct SurfacePatches {
   std::vector<double> radius;          // a whole face of a peridynamic body: its largest centroid-to-
                                        // corner distance, m (a disc around the point that covers the
                                        // face); 0 for the FEM corner thirds and the layer shares
+  std::vector<std::array<Vec3, 3>> corner;  // a whole face: its corners − particle reference position, m
+                                            // (the colliders' contact geometry); zero where radius is 0
 };
 
 // The scene's loads, each with the particles it acts on (sorted) and, for surface loads, the

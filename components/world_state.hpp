@@ -163,6 +163,7 @@ void for_each_array(W& w, F&& f) {
   f(K::particle, "state.contact_force", s.contact_force);
   f(K::particle, "state.broken_bonds", s.broken_bonds);
   f(K::particle, "state.bond_end", s.bond_end);
+  f(K::particle, "state.surface_frame", s.surface_frame);
   auto& b = w.bonds;
   f(K::particle, "bonds.offsets", b.offsets);
   f(K::particle, "bonds.initial_count", b.initial_count);
@@ -247,6 +248,7 @@ void for_each_array(W& w, F&& f) {
   f(K::other, "surface.normal", w.surface.normal);
   f(K::other, "surface.offset", w.surface.offset);
   f(K::other, "surface.radius", w.surface.radius);
+  f(K::other, "surface.corner", w.surface.corner);
   for (auto& list : w.loads.particles) f(K::other, "loads.particles", list);
   for (auto& list : w.loads.patch_offsets) f(K::other, "loads.patch_offsets", list);
   for (auto& list : w.loads.patches) f(K::other, "loads.patches", list);

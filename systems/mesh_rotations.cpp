@@ -44,11 +44,6 @@ bool deformation_conditioned(const Mat3& F) {
   return F.squaredNorm() <= 12.0 && F.inverse().squaredNorm() <= 12.0;
 }
 
-namespace {
-
-constexpr std::uint64_t kRefreshSteps = 8;
-
-// K and N over p's bonds (alive ones only, or all); returns the number of bonds summed.
 std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N) {
   const Bonds& b = w.bonds;
   const auto& x = w.particles.reference_position;
@@ -68,6 +63,10 @@ std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, M
   }
   return n;
 }
+
+namespace {
+
+constexpr std::uint64_t kRefreshSteps = 8;
 
 void step_particle(WorldState& w, std::size_t p) {
   EmbeddedMesh& e = w.embedded;

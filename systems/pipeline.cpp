@@ -3,7 +3,7 @@
 //   kick_begin → boundary_conditions → drift → (projectile_drift) → colliders → (contact)
 //   → dilatation → bond_pass (plasticity + elastic force + fracture test + damage, one bond pass)
 //   external_loads (gravity + scene loads; reads the drifted positions and the half-step velocity)
-//   → (projectile_contact) → kick_end
+//   → (projectile_contact) → kick_end → (surface_frames, for the next step's colliders)
 //   → (fracture_threshold) → (crack_faces → mesh_split) → (mesh_rotations → mesh_vertices)
 //                                                                               (embedded mesh, §5.2)
 // Distributed runs add the halo exchanges (halo_motion after colliders, halo_dilatation after
@@ -48,6 +48,7 @@ std::vector<SystemDecl> step_pipeline(WorldState& w, PipelineOptions options) {
   if (!w.projectiles.bodies.empty())
     s.push_back(projectile_contact_system(w, halo ? &halo->projectile_contacts : nullptr));
   s.push_back(kick_end_system(w));
+  if (!w.state.surface_frame.empty()) s.push_back(surface_frame_system(w));
   if (separate && w.any_fracture) {
     s.push_back(fracture_system(w));
     s.push_back(damage_system(w));

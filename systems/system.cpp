@@ -21,6 +21,7 @@ const char* component_name(Component c) {
     case Component::mesh: return "mesh";
     case Component::bond_end: return "bond_end";
     case Component::contact_list: return "contact_list";
+    case Component::surface_frames: return "surface_frames";
     case Component::count_: break;
   }
   return "?";

@@ -106,6 +106,12 @@ void init_held_rotations(WorldState& world);
 void update_held_rotations(WorldState& world);
 bool family_fits(const Mat3& K, std::uint32_t alive);
 bool deformation_conditioned(const Mat3& F);
+// K = Σ ω ξ⊗ξ V_j and N = Σ ω η⊗ξ V_j over p's bonds (alive ones only, or all), in the neighbour
+// list's order; returns the number of bonds summed (F = N K⁻¹ when family_fits).
+std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N);
+// surface_frames.cpp: the deformation of each particle whose boundary faces may reach a collider in the
+// next step (ParticleState::surface_frame); at set-up, at the end of every step (surface_frame_system).
+void update_surface_frames(WorldState& world);
 bool face_pair_shared(const EmbeddedMesh& mesh, std::uint32_t pair);
 void extract_surface(const WorldState& world, const std::vector<std::uint32_t>* fragment_id, SurfaceMesh& out,
                      std::uint32_t min_piece_tets = 0);
@@ -130,6 +136,7 @@ SystemDecl kick_begin_system(WorldState& world);
 SystemDecl boundary_condition_system(WorldState& world);
 SystemDecl drift_system(WorldState& world);
 SystemDecl collider_system(WorldState& world);
+SystemDecl surface_frame_system(WorldState& world);
 SystemDecl dilatation_system(WorldState& world);
 SystemDecl elastic_force_system(WorldState& world);  // test oracle for bond_pass
 SystemDecl external_load_system(WorldState& world);

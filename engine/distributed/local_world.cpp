@@ -169,6 +169,7 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
     s.normal.assign(fs.normal.begin() + patch_first, fs.normal.begin() + patch_last);
     s.offset.assign(fs.offset.begin() + patch_first, fs.offset.begin() + patch_last);
     s.radius.assign(fs.radius.begin() + patch_first, fs.radius.begin() + patch_last);
+    s.corner.assign(fs.corner.begin() + patch_first, fs.corner.begin() + patch_last);
   }
 
   // Loads: particle lists restricted to the owned particles, with their patch rows.

@@ -17,13 +17,14 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'P', 'E', 'R', 'I', 'F', 'X', 'C', 'K'};
-constexpr std::uint32_t kVersion = 8;  // 2: embedded.held_deformation, embedded.held_tracked;
+constexpr std::uint32_t kVersion = 9;  // 2: embedded.held_deformation, embedded.held_tracked;
                                        // 3: contact moved-particle updates (per-particle search positions);
                                        // 4: no per-bond |ξ|, ω, mirror index; e^p as float (issue 16);
                                        // 5: model.anisotropy_metric (GᵀG per particle);
                                        // 6: clock.first_break_step
                                        // 7: projectiles.contacts and .touched, global_index
                                        // 8: surface.radius (faces for projectiles)
+                                       // 9: state.surface_frame (faces for colliders)
 
 // Worker-slot scratch: sized by the thread count, so a resume on another thread count keeps its own.
 bool thread_dependent(std::string_view name) { return name == "contact.pairs.bonded_stamp"; }

@@ -283,7 +283,9 @@ Key build_spec() {
   }).def(Json::array());
 
   Key collider = nested("colliders", Type::array, "collider",
-      "Kinematic obstacles with prescribed motion.", {
+      "Kinematic obstacles with prescribed motion. A body meets them with its mesh surface (the boundary "
+      "triangles of its tets, following each particle's deformation), so it rests on a ground plane with "
+      "the surface you render, not a fraction of a cell inside it.", {
       choice("type", {"plane", "sphere", "box"}, "Shape.").req(),
       vec3("point", "A point on the plane, m.").def(kZero).only({"plane"}),
       vec3("normal", "Outward normal (normalized on load); the solid is on the other side.")

@@ -1,5 +1,5 @@
 // Load setup: the boundary faces of the reference tet mesh as surface patches of their particles
-// (components/loads.hpp; also built for projectiles, which meet a body at these faces), and for each
+// (components/loads.hpp; also built for projectiles and colliders, which meet a body at these faces), and for each
 // scene load the particles and patches it acts on. Regions are
 // tested once, on reference positions: a surface load takes the boundary faces whose centroid lies in
 // its region, a body load the particles whose reference position does. A traction with a `depth`
@@ -19,13 +19,14 @@ struct Patch {
   double area;
   Vec3 normal, point, centroid;  // point: where the load is evaluated; centroid: the region test
   double radius = 0.0;           // whole faces of peridynamic bodies: centroid to farthest corner
+  std::array<Vec3, 3> corners{};  // whole faces of peridynamic bodies: the face's corners (else zero)
 };
 
 // Every boundary face of the reference mesh, as patches in particle order (faces of one particle in
 // tet-local face order), so the CSR below is deterministic.
-std::vector<Patch> boundary_patches(const WorldState& w, bool fem) {
+std::vector<Patch> boundary_patches(const WorldState& w, const std::vector<std::array<std::int32_t, 4>>& neighbors,
+                                    bool fem) {
   const TetMesh& mesh = w.mesh;
-  const auto neighbors = geometry::face_neighbors(mesh);
   std::vector<Patch> out;
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
     for (int k = 0; k < 4; ++k) {
@@ -47,7 +48,7 @@ std::vector<Patch> boundary_patches(const WorldState& w, bool fem) {
       if (n.dot(mesh.vertices[mesh.tets[t][static_cast<std::size_t>(k)]] - centroid) > 0.0) n = -n;
       if (!fem) {
         const double radius = std::max({(v[0] - centroid).norm(), (v[1] - centroid).norm(), (v[2] - centroid).norm()});
-        out.push_back({static_cast<std::uint32_t>(t), area, n, centroid, centroid, radius});
+        out.push_back({static_cast<std::uint32_t>(t), area, n, centroid, centroid, radius, v});
         continue;
       }
       // FEM: a third of the face per corner, evaluated at the centroid of that corner's third
@@ -115,7 +116,8 @@ void spread_in_layer(const WorldState& w, double depth, const std::vector<std::s
 
 }  // namespace
 
-void resolve_loads(const std::vector<scene::Load>& loads, WorldState& w) {
+void resolve_loads(const std::vector<scene::Load>& loads, const std::vector<std::array<std::int32_t, 4>>& face_neighbors,
+                   WorldState& w) {
   const auto& p = w.particles;
   const std::size_t n = p.count();
   const bool fem = w.settings.solver != scene::Solver::peridynamics;
@@ -125,12 +127,12 @@ void resolve_loads(const std::vector<scene::Load>& loads, WorldState& w) {
   set.particles.resize(loads.size());
   set.patch_offsets.resize(loads.size());
   set.patches.resize(loads.size());
-  // The faces are built for surface loads, and for projectiles in peridynamic worlds.
+  // The faces are built for surface loads, and for projectiles and colliders in peridynamic worlds.
   const bool any_surface = std::any_of(loads.begin(), loads.end(), [](const auto& l) { return surface_load(l.kind); }) ||
-                           (!fem && !w.settings.projectiles.empty());
+                           (!fem && (!w.settings.projectiles.empty() || !w.settings.colliders.empty()));
   // The boundary faces, then the layer shares of tractions with a depth; each load's patches.
   std::vector<Patch> all;
-  if (any_surface) all = boundary_patches(w, fem);
+  if (any_surface) all = boundary_patches(w, face_neighbors, fem);
   const std::size_t faces = all.size();
   std::vector<std::vector<std::size_t>> used(loads.size());
   for (std::size_t l = 0; l < loads.size(); ++l) {
@@ -165,6 +167,9 @@ void resolve_loads(const std::vector<scene::Load>& loads, WorldState& w) {
     s.normal.push_back(q.normal);
     s.offset.push_back(q.point - p.reference_position[q.particle]);
     s.radius.push_back(q.radius);
+    const Vec3& x = p.reference_position[q.particle];
+    s.corner.push_back(q.radius > 0.0 ? std::array<Vec3, 3>{q.corners[0] - x, q.corners[1] - x, q.corners[2] - x}
+                                      : std::array<Vec3, 3>{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()});
   }
   for (std::size_t i = 0; any_surface && i < n; ++i) s.offsets[i + 1] += s.offsets[i];
 

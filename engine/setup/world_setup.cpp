@@ -101,7 +101,11 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   w.settings.max_speed = max_speed(scene, w);
   allocate_step_state(w);
   resolve_boundary_conditions(scene.boundary_conditions, w);
-  resolve_loads(scene.loads, w);
+  // Face adjacency of the tet mesh, once: the boundary faces (loads, projectiles, colliders), the
+  // families' mesh rule and the embedded mesh read it.
+  const auto adjacency = geometry::face_neighbors(w.mesh);
+  phase("mesh adjacency");
+  resolve_loads(scene.loads, adjacency, w);
   phase("regions and loads");
   auto& p = w.particles;
 
@@ -124,8 +128,6 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     return world;
   }
   scheduler.execute([&] {
-    const auto adjacency = geometry::face_neighbors(w.mesh);
-    phase("mesh adjacency");
     systems::build_families(w, adjacency);
     systems::remove_cracked_bonds(w, scene.cracks);
     phase("families");
@@ -155,6 +157,11 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
       p.acceleration[i] = (w.state.internal_force[i] + w.state.external_force[i]) / p.mass[i];
     });
     phase("initial force");
+    // The colliders meet the faces placed by the surface frames (systems/surface_frames.cpp).
+    if (!w.settings.colliders.empty() && !w.surface.radius.empty()) {
+      w.state.surface_frame.assign(p.count(), Eigen::Matrix3f::Zero());
+      systems::update_surface_frames(w);
+    }
   });
   systems::setup_contact(w);
   systems::setup_projectiles(w);

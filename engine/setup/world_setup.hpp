@@ -38,7 +38,9 @@ void allocate_step_state(WorldState& w);
 void resolve_boundary_conditions(const std::vector<scene::BoundaryCondition>& conditions, WorldState& w);
 
 // loads.cpp: w.surface (boundary patches of the reference mesh) and w.loads from the scene's loads.
-void resolve_loads(const std::vector<scene::Load>& loads, WorldState& w);
+// face_neighbors: geometry::face_neighbors of w.mesh (the boundary faces are those without one).
+void resolve_loads(const std::vector<scene::Load>& loads, const std::vector<std::array<std::int32_t, 4>>& face_neighbors,
+                   WorldState& w);
 
 // stable_time_step.cpp: largest stable velocity-Verlet step 2/ω_max, ω_max² the largest eigenvalue
 // of M⁻¹K for the linearized elastic force at the reference configuration.

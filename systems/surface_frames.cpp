@@ -1,0 +1,76 @@
+// Surface frames system (contact geometry for the colliders, systems/README.md §8.3).
+// A particle whose tet has original boundary faces meets a collider with those triangles
+// (WorldState::surface), not only with its centre. For the faces to follow a piece that
+// turns or stretches, each such particle near a collider keeps the deformation of its family,
+//   K = Σ ω ξ⊗ξ V_j,  N = Σ ω η⊗ξ V_j  (alive bonds, family_sums),  F = N K⁻¹,
+// the fit mesh_vertices.cpp places the rendered surface with: F itself when the family fits and F is
+// well conditioned, its rotation when F is badly stretched or inverted, and zero (the face then only
+// moves with the particle) when the family does not fit (fewer than 4 alive bonds or K singular).
+// The colliders of the next step place each face corner X at y + F·(X − x).
+// Why at the end of the step, not in the colliders: the colliders move particles while they run, so
+// a neighbour's position read there would race; and in a distributed run the ghosts' positions are
+// current at the end of the step (after halo_motion), not before it. The frame lags by one step, a
+// change of F of order dt·|∇v|.
+// Which particles: those with a face whose farthest corner could reach a collider
+// (√12·|X − x|, ‖F‖ ≤ √12 for a conditioned F) plus one step of the particle's and the
+// collider's motion (a margin of 2×); the others get zero and cost nothing but the distance test.
+// Reads: time, position, velocity, acceleration, bond_alive.   Writes: surface_frames.
+// Parallel over particles, each frame written by its own particle's task: deterministic.
+#include <cmath>
+
+#include "collider_shapes.hpp"
+#include "parallel.hpp"
+#include "systems.hpp"
+
+namespace perifx::systems {
+namespace {
+
+// ‖F‖₂ ≤ ‖F‖_F ≤ √12 for a conditioned F (deformation_conditioned), and 1 for its rotation.
+constexpr double kMaxStretch = 3.4641016151377544;
+
+}  // namespace
+
+void update_surface_frames(WorldState& w) {
+  auto& frames = w.state.surface_frame;
+  if (frames.empty()) return;
+  const SurfacePatches& sf = w.surface;
+  const auto& p = w.particles;
+  const double dt = w.clock.dt;
+  const double t = w.clock.time + dt;  // where this step's colliders were
+  std::vector<PlacedCollider> placed;  // a handful; outside the particle loop
+  placed.reserve(w.settings.colliders.size());
+  for (const auto& c : w.settings.colliders) placed.push_back(place_collider(c, t));
+  parallel_for_each(p.count(), [&](std::size_t i) {
+    Eigen::Matrix3f& out = frames[i];
+    out.setZero();
+    if (!w.owns(i)) return;  // a ghost: its owner computes its frame
+    double reach = -1.0;
+    for (std::uint32_t q = sf.offsets[i]; q < sf.offsets[i + 1]; ++q)
+      if (sf.radius[q] > 0.0)
+        for (const Vec3& corner : sf.corner[q]) reach = std::max(reach, kMaxStretch * corner.norm());
+    if (reach < 0.0) return;  // no faces (or only load shares)
+    const double motion = dt * (p.velocity[i].norm() + dt * p.acceleration[i].norm());
+    bool near = false;
+    for (const PlacedCollider& pc : placed) {
+      const scene::Collider& c = *pc.spec;
+      const double arm = (p.position[i] - pc.center).norm();
+      const double collider_motion = dt * (c.velocity.norm() + c.angular_velocity.norm() * arm);
+      if (collider_distance(pc, p.position[i]) < reach + 2.0 * (motion + collider_motion)) near = true;
+    }
+    if (!near) return;
+    Mat3 K, N;
+    const std::uint32_t alive = family_sums(w, i, true, K, N);
+    if (!family_fits(K, alive)) return;
+    const Mat3 F = N * K.inverse();
+    out = (deformation_conditioned(F) ? F : polar_rotation(F)).cast<float>();
+  }, 1024);
+}
+
+SystemDecl surface_frame_system(WorldState& w) {
+  return {"surface_frames",
+          {Component::time, Component::position, Component::velocity, Component::acceleration, Component::bond_alive},
+          {Component::surface_frames},
+          [&w] { update_surface_frames(w); }};
+}
+
+}  // namespace perifx::systems
