@@ -5,8 +5,9 @@
 # 4 ranks of 1 thread and at 2 ranks of 2 threads, and compares every output file byte for byte:
 # particle frames (vtu, ply), split-mesh surfaces (obj, ply, vtp), tet meshes (vtu), the Blender cache
 # (animation.obj/.pc2), glTF, dust, pieces.csv, mesh.json and projectiles.csv (all but summary.json and
-# checkpoint.bin). It first checks that the reference run yields, breaks into pieces and is struck by
-# the ball, so the comparison covers all three. A run of 3 ranks re-splits its work every 20 steps
+# checkpoint.bin). It first checks that the reference run yields, breaks into pieces, is struck by
+# the ball and lifted by a rising box collider (which reads the surface frames computed from ghosts), so
+# the comparison covers all four. A run of 3 ranks re-splits its work every 20 steps
 # (rebalance_drift 0). Then a run of 2 ranks stopped at frame 7 is resumed from its checkpoint by 3
 # ranks, and by one process: the same bytes. --bind-to none: Open MPI otherwise pins each rank to one
 # core, and oneTBB would then run 2 threads on it as 1.
@@ -37,12 +38,26 @@ plastic = max(struct.unpack_from("<%dd" % (size // 8), data, offset + 8))
 # The ball's largest contact force over the frames (projectiles.csv: fx, fy, fz).
 rows = (run / "projectiles.csv").read_text().splitlines()[1:]
 ball = max(sum(float(v) ** 2 for v in row.split(",")[11:14]) ** 0.5 for row in rows)
+# The rising box collider (top at y = -0.102 + 1 m/s * t over x in [0.05, 0.15], z in [-0.05, 0.05]) has
+# lifted the plate's bottom edge: the lowest particle over it ends above where the edge began (-0.1 m).
+ply = sorted(run.glob("particles.*.ply"))[-1].read_bytes()
+header, body = ply.split(b"end_header\n", 1)
+props = [line.split() for line in header.splitlines() if line.startswith(b"property")]
+kinds = {b"float": "f", b"double": "d", b"uint": "I", b"int": "i", b"uchar": "B", b"ushort": "H"}
+fmt = "<" + "".join(kinds[p[1]] for p in props)
+count = int(header.split(b"element vertex ")[1].split()[0])
+names = [p[2] for p in props]
+ix, iy = names.index(b"x"), names.index(b"y")
+rows_ply = [struct.unpack_from(fmt, body, k * struct.calcsize(fmt)) for k in range(count)]
+iz = names.index(b"z")
+lifted = min(r[iy] for r in rows_ply if 0.06 < r[ix] < 0.14 and abs(r[iz]) < 0.04)
 print(f"mpi_identity: one process: {summary['particles']} particles, {broken} of {summary['bonds']} bonds broken, "
       f"first break at {summary['first_break_time']} s, largest plastic strain {plastic:.3g}, "
-      f"largest ball force {ball:.3g} N, {summary['fragments']} pieces")
-if broken == 0 or not plastic > 0 or not ball > 0 or summary["fragments"] < 2:
-    sys.exit("mpi_identity: the reference run must break into pieces, yield and be struck; the scene no longer "
-             "tests that")
+      f"largest ball force {ball:.3g} N, {summary['fragments']} pieces, lowest particle over the box collider "
+      f"at y = {lifted:.4f} m")
+if broken == 0 or not plastic > 0 or not ball > 0 or summary["fragments"] < 2 or not lifted > -0.09:
+    sys.exit("mpi_identity: the reference run must break into pieces, yield, be struck and be lifted by the box "
+             "collider; the scene no longer tests that")
 EOF
 
 fail=0
