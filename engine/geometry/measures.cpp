@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>  // cross(); components/math.hpp only brings in Eigen/Core
 
 #include "geometry/geometry.hpp"
+#include "systems/parallel.hpp"
 
 namespace perifx::geometry {
 
@@ -149,32 +150,44 @@ std::vector<std::array<std::int32_t, 4>> face_neighbors(const TetMesh& mesh) {
     }
   }
 
-  for (std::size_t v = 0; v < nv; ++v) {
+  // The buckets are independent (each face id is in one bucket, so each result slot is written once):
+  // sorted and matched in parallel. A face shared by three or more tets marks its bucket; the first
+  // marked bucket is reported afterwards, so the message does not depend on the thread count.
+  std::vector<std::uint8_t> non_manifold(nv, 0);
+  auto match_bucket = [&](std::size_t v, bool report) {
     auto first = faces.begin() + static_cast<std::ptrdiff_t>(offsets[v]);
     auto last = faces.begin() + static_cast<std::ptrdiff_t>(offsets[v + 1]);
-    std::sort(first, last, [](const FaceEntry& x, const FaceEntry& y) {
-      return x.key != y.key ? x.key < y.key : x.id < y.id;
-    });
+    if (!report)
+      std::sort(first, last, [](const FaceEntry& x, const FaceEntry& y) {
+        return x.key != y.key ? x.key < y.key : x.id < y.id;
+      });
     for (auto run = first; run != last;) {
       auto end = run + 1;
       while (end != last && end->key == run->key) ++end;
       const auto multiplicity = end - run;
-      if (multiplicity == 2) {
+      if (multiplicity == 2 && !report) {
         const std::uint32_t a = run[0].id, b = run[1].id;
         result[a / 4][a % 4] = static_cast<std::int32_t>(b / 4);
         result[b / 4][b % 4] = static_cast<std::int32_t>(a / 4);
       } else if (multiplicity > 2) {
         // Three or more tets on one triangle: no consistent "other side" exists, and the physics
         // would double-count the contact across it.
-        throw GeometryError("non-manifold mesh: face (" + std::to_string(v) + ", " +
-                            std::to_string(run->key >> 32) + ", " +
-                            std::to_string(run->key & 0xffffffffULL) + ") is shared by " +
-                            std::to_string(multiplicity) + " tets (first: tet " +
-                            std::to_string(run[0].id / 4) + ")");
+        if (!report) {
+          non_manifold[v] = 1;
+        } else {
+          throw GeometryError("non-manifold mesh: face (" + std::to_string(v) + ", " +
+                              std::to_string(run->key >> 32) + ", " +
+                              std::to_string(run->key & 0xffffffffULL) + ") is shared by " +
+                              std::to_string(multiplicity) + " tets (first: tet " +
+                              std::to_string(run[0].id / 4) + ")");
+        }
       }
       run = end;
     }
-  }
+  };
+  parallel_for_each(nv, [&](std::size_t v) { match_bucket(v, false); }, 1024);
+  for (std::size_t v = 0; v < nv; ++v)
+    if (non_manifold[v]) match_bucket(v, true);
   return result;
 }
 

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <string_view>
 
 #include "geometry/geometry.hpp"
 #include "systems/huge_pages.hpp"
@@ -99,14 +100,16 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   add_bodies(scene, w);
   phase("bodies (mesh, Morton order, particles)");
   w.settings.max_speed = max_speed(scene, w);
-  allocate_step_state(w);
+  scheduler.execute([&] { allocate_step_state(w); });  // parallel page clearing, in the world's arena
   resolve_boundary_conditions(scene.boundary_conditions, w);
+  phase("step state and boundary conditions");
   // Face adjacency of the tet mesh, once: the boundary faces (loads, projectiles, colliders), the
   // families' mesh rule and the embedded mesh read it.
-  const auto adjacency = geometry::face_neighbors(w.mesh);
+  std::vector<std::array<std::int32_t, 4>> adjacency;
+  scheduler.execute([&] { adjacency = geometry::face_neighbors(w.mesh); });
   phase("mesh adjacency");
   resolve_loads(scene.loads, adjacency, w);
-  phase("regions and loads");
+  phase("loads");
   auto& p = w.particles;
 
   if (fem) {
@@ -159,7 +162,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     phase("initial force");
     // The colliders meet the faces placed by the surface frames (systems/surface_frames.cpp).
     if (!w.settings.colliders.empty() && !w.surface.radius.empty()) {
-      w.state.surface_frame.assign(p.count(), Eigen::Matrix3f::Zero());
+      systems::assign_huge_pages(w.state.surface_frame, p.count(), Eigen::Matrix3f(Eigen::Matrix3f::Zero()));
       systems::update_surface_frames(w);
     }
   });
@@ -169,8 +172,13 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   // The per-particle arrays the bond passes gather from into huge pages (systems/huge_pages.hpp; the
   // bond arrays were allocated there). Mesh and contact arrays stay: copying them cost more set-up
   // time (about 1.5 s at 9e5 particles) than they gain.
-  for_each_array(w, [](ArrayKind kind, const char*, auto& array) {
-    if (kind == ArrayKind::particle) systems::move_to_huge_pages(array);
+  // The step state (particles.acceleration, .flags and state.*) was allocated there already.
+  scheduler.execute([&] {
+    for_each_array(w, [](ArrayKind kind, const char* name, auto& array) {
+      const std::string_view n(name);
+      const bool step_state = n.starts_with("state.") || n == "particles.acceleration" || n == "particles.flags";
+      if (kind == ArrayKind::particle && !step_state) systems::move_to_huge_pages(array);
+    });
   });
   phase("huge pages");
   return world;
