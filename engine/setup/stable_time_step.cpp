@@ -106,30 +106,23 @@ double stable_time_step_bound(const WorldState& w) {
     // lane-strided pass (SIMD square roots and divisions; bond_rules.hpp's for_each_bond_lane, sums in a
     // fixed lane order). This bound was 0.5 s of a 9e5-particle set-up as a scalar loop.
     const auto bs = systems::bond_streams(w, x);
-    const double* const volume = vol.data();
-    const double* const horizon = md.horizon.data();
-    parallel_for_each(n, [&](std::size_t i) {
+    // Σ_j value[j]/|ξ_ij| over i's bonds.
+    auto over_length = [&](std::size_t i, const double* value) {
       const auto o = bs.origin(i);
       double lanes[systems::kBondLanes] = {};
       auto lane = [=, &lanes](std::size_t k, int l, std::uint64_t) {
         const std::size_t j = bs.neighbor[k];
         const double r = systems::reference_length(bs.x[3 * j] - o.xx, bs.x[3 * j + 1] - o.xy, bs.x[3 * j + 2] - o.xz);
-        lanes[l] += volume[j] / r;
+        lanes[l] += value[j] / r;
       };
       systems::for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
-      finish_q(i, horizon[i] * systems::sum_lanes(lanes));
-    }, 256);
-    const double* const qq = q.data();
+      return systems::sum_lanes(lanes);
+    };
+    parallel_for_each(n, [&](std::size_t i) { finish_q(i, md.horizon[i] * over_length(i, vol.data())); }, 256);
+    std::vector<double> q_horizon(n);  // q_j δ_j
+    parallel_for_each(n, [&](std::size_t i) { q_horizon[i] = q[i] * md.horizon[i]; }, 4096);
     parallel_for_each(n, [&](std::size_t i) {
-      const auto o = bs.origin(i);
-      double lanes[systems::kBondLanes] = {};
-      auto lane = [=, &lanes](std::size_t k, int l, std::uint64_t) {
-        const std::size_t j = bs.neighbor[k];
-        const double r = systems::reference_length(bs.x[3 * j] - o.xx, bs.x[3 * j + 1] - o.xy, bs.x[3 * j + 2] - o.xz);
-        lanes[l] += qq[j] * horizon[j] / r;
-      };
-      systems::for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
-      bound[i] = (q[i] * s[i] + systems::sum_lanes(lanes) * vol[i]) / w.particles.mass[i];
+      bound[i] = (q[i] * s[i] + over_length(i, q_horizon.data()) * vol[i]) / w.particles.mass[i];
     }, 256);
   } else {
     parallel_for_each(n, [&](std::size_t i) {

@@ -318,11 +318,17 @@ TEST_CASE("a projectile first touches a body where its mesh surface is, at any r
   // resolution. Control: the step at which the particles' spheres of reach alone would first be touched,
   // computed here from the particles, is far off at 2 cells (the test would fail without the discs).
   const double radius = 0.04, gap = 0.00405, speed = 10.0, dt = 1e-5;
-  const double lateral_x = 0.013, lateral_y = 0.007;
   const long expected = static_cast<long>(std::floor(gap / (speed * dt))) + 1;
-  for (double cell : {0.05, 0.025, 0.0125}) {
+  // 0.06 (the fig07 preview's walls: 1 m wide, 0.1 m thick, jittered as breakable bodies are by
+  // default): cells of 0.0588 × 0.0588 × 0.05 m, where spheres of reach of the top layer stick out
+  // above the top face (one by 4 mm there): alone they would be touched early, so outside a face they
+  // must not count.
+  for (double cell : {0.05, 0.025, 0.0125, 0.06}) {
     CAPTURE(cell);
-    auto sc = test::box_scene(Vec3(0.2, 0.2, 0.1), cell, kKappa, kMu, kRho);
+    const bool flat = cell == 0.06;
+    const double side = flat ? 1.0 : 0.2, lateral_x = flat ? 0.0 : 0.013, lateral_y = flat ? 0.0 : 0.007;
+    auto sc = test::box_scene(Vec3(side, side, 0.1), cell, kKappa, kMu, kRho);
+    if (flat) sc.bodies[0].geometry.jitter = 0.3;  // what a breakable body gets by default
     sc.time.dt = dt;
     scene::Projectile pr;
     pr.radius = radius;
@@ -352,6 +358,7 @@ TEST_CASE("a projectile first touches a body where its mesh surface is, at any r
     MESSAGE("cell " << cell << ": first touch at step " << touched << ", surface " << expected
                     << ", spheres of reach alone " << reach_step);
     CHECK(touched == expected);
-    if (cell == 0.05) CHECK(std::abs(reach_step - expected) > 5);
+    if (cell == 0.05) CHECK(reach_step - expected > 5);   // the spheres of reach lie inside: late
+    if (cell == 0.06) CHECK(reach_step < expected);       // they stick out: early
   }
 }
