@@ -54,16 +54,29 @@ SystemDecl collider_system(WorldState& w) {
               const std::uint32_t face_end = frames.empty() ? 0 : sf.offsets[i + 1];
               const Mat3 F = face_end > face_begin ? Mat3(frames[i].cast<double>()) : Mat3::Zero();
               const bool framed = !F.isZero(0.0);
+              const Mat3 normal_map = framed ? Mat3(F.inverse().transpose()) : Mat3::Identity();
+              // Peridynamic worlds: the particle's sphere of reach (the projectiles' and the contact's,
+              // half the contact distance) for where it has no face toward the collider: a tet exposed by a
+              // crack or a piece resting on a crack face would otherwise sink to its centroid, up to half a
+              // cell (tens of mm in a preview) into the ground.
+              const double reach = frames.empty() ? 0.0 : 0.5 * w.contact.distance_factor * w.contact.size[i];
               for (const PlacedCollider& pc : placed) {
                 const scene::Collider& c = *pc.spec;
                 Penetration deepest = point_penetration(pc, y);
-                bool centre = true;
+                bool centre = true, facing = false;
                 for (std::uint32_t q = face_begin; q < face_end; ++q) {
                   if (!(sf.radius[q] > 0.0)) continue;  // a layer share of a traction, not a face
                   std::array<Vec3, 3> corners;
                   for (int k = 0; k < 3; ++k) corners[k] = y + (framed ? Vec3(F * sf.corner[q][k]) : sf.corner[q][k]);
+                  // A face turned toward the collider is the surface there (then no sphere of reach).
+                  facing = facing || (normal_map * sf.normal[q]).dot(deepest.normal) < 0.0;
                   const Penetration pen = triangle_penetration(pc, corners);
                   if (pen.depth > deepest.depth) deepest = pen, centre = false;
+                }
+                if (reach > 0.0 && !facing) {
+                  Penetration sphere = point_penetration(pc, y);
+                  sphere.depth += reach;
+                  if (sphere.depth > deepest.depth) deepest = sphere, centre = false;
                 }
                 if (!(deepest.depth > 0.0)) continue;
                 // The centre alone on a sphere: placed on the surface (the projection of earlier versions).

@@ -139,3 +139,30 @@ TEST_CASE("triangle penetration: exact against a plane, a sphere and a box") {
   const std::array<Vec3, 3> beside{Vec3(1.2, 0, 0), Vec3(1.5, 0.5, 0), Vec3(1.3, 0, 0.5)};
   CHECK(systems::triangle_penetration(pb, beside).depth <= 0.0);
 }
+
+TEST_CASE("a particle with no face toward the ground meets it with its sphere of reach") {
+  // A tet exposed by a crack (or any particle without an original face toward the collider) rests on
+  // its sphere of reach, half the contact distance, like the projectiles' contact: one collider pass
+  // lifts an interior particle placed with its centre a quarter of its reach above the plane to exactly
+  // its reach above it. Its neighbours stay where they are (the body floats 10 cm up).
+  auto sc = test::box_scene(Vec3(0.06, 0.06, 0.06), 0.01, 8e6, 4.8e6);
+  sc.bodies[0].transform.translation = Vec3(0.0, 0.1, 0.0);
+  scene::Collider ground;
+  sc.colliders.push_back(ground);
+  World world(sc);
+  WorldState& w = world.state_mutable();
+  std::size_t interior = w.particles.count();
+  for (std::size_t i = 0; i < w.particles.count() && interior == w.particles.count(); ++i)
+    if (w.surface.offsets[i] == w.surface.offsets[i + 1] && (w.particles.reference_position[i] - Vec3(0, 0.1, 0)).norm() < 0.01)
+      interior = i;
+  REQUIRE(interior < w.particles.count());
+  const double reach = 0.5 * w.contact.distance_factor * w.contact.size[interior];
+  w.particles.position[interior].y() = 0.25 * reach;
+  systems::update_surface_frames(w);
+  const std::vector<Vec3> before = w.particles.position;
+  systems::collider_system(w).run();
+  MESSAGE("interior particle " << interior << ": reach " << reach << " m, lifted to " << w.particles.position[interior].y());
+  CHECK(w.particles.position[interior].y() == doctest::Approx(reach).epsilon(1e-12));
+  for (std::size_t i = 0; i < w.particles.count(); ++i)
+    if (i != interior) CHECK(w.particles.position[i] == before[i]);
+}
