@@ -90,8 +90,8 @@ struct ParticleState {
   std::vector<BondEnd> bond_end;            // packed far-end view for the fused bond pass (bond_pass.cpp)
   // Per particle (only in peridynamic worlds with colliders): the deformation F = N K⁻¹ of its family
   // at the end of the last step, for particles with boundary faces near a collider; zero where not
-  // computed or the family does not fit. The colliders place each face disc at y + F·offset with
-  // normal F⁻ᵀn (surface_frames.cpp). Float: it only places contact geometry, to ~1e-7 of a tet size.
+  // computed or the family does not fit. The colliders place each boundary-face corner X at
+  // y + F·(X − x) (surface_frames.cpp). Float: it only places contact geometry, to ~1e-7 of a tet size.
   std::vector<Eigen::Matrix3f> surface_frame;
   // Health of the step: the lowest particle index whose position or velocity kick_end found non-finite
   // or whose speed exceeds StepSettings::max_speed, or kAllStable. Written by kick_end with the

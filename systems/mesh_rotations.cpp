@@ -44,6 +44,13 @@ bool deformation_conditioned(const Mat3& F) {
   return F.squaredNorm() <= 12.0 && F.inverse().squaredNorm() <= 12.0;
 }
 
+bool fitted_deformation(const Mat3& K, const Mat3& N, std::uint32_t alive, Mat3& F) {
+  if (!family_fits(K, alive)) return false;
+  const Mat3 fit = N * K.inverse();
+  F = deformation_conditioned(fit) ? fit : polar_rotation(fit);
+  return true;
+}
+
 std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N) {
   const Bonds& b = w.bonds;
   const auto& x = w.particles.reference_position;
@@ -74,9 +81,7 @@ void step_particle(WorldState& w, std::size_t p) {
   const std::uint32_t alive = family_sums(w, p, true, K, N);
   Mat3& S = e.held_deformation[p];
   e.held_broken_seen[p] = w.state.broken_bonds.empty() ? 0 : w.state.broken_bonds[p];
-  if (family_fits(K, alive)) {
-    const Mat3 F = N * K.inverse();
-    S = deformation_conditioned(F) ? F : polar_rotation(F);
+  if (fitted_deformation(K, N, alive, S)) {
     e.held_tracked[p] = 1;
     e.held_fits[p] = 1;
     return;

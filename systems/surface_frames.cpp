@@ -58,11 +58,9 @@ void update_surface_frames(WorldState& w) {
       if (collider_distance(pc, p.position[i]) < reach + 2.0 * (motion + collider_motion)) near = true;
     }
     if (!near) return;
-    Mat3 K, N;
+    Mat3 K, N, F;
     const std::uint32_t alive = family_sums(w, i, true, K, N);
-    if (!family_fits(K, alive)) return;
-    const Mat3 F = N * K.inverse();
-    out = (deformation_conditioned(F) ? F : polar_rotation(F)).cast<float>();
+    if (fitted_deformation(K, N, alive, F)) out = F.cast<float>();
   }, 1024);
 }
 

@@ -29,7 +29,7 @@ enum class Component : std::uint8_t {
   mesh,  // the embedded (cracking) tet mesh: WorldState::embedded
   bond_end,      // ParticleState::bond_end, the packed far-end copy the bond pass refreshes and reads
   contact_list,  // ContactState's grid and Verlet pair list (systems/contact.cpp)
-  surface_frames,  // ParticleState::surface_frame, the face discs' placement the colliders read
+  surface_frames,  // ParticleState::surface_frame, which places the boundary faces the colliders meet
   count_  // number of components
 };
 const char* component_name(Component c);

@@ -109,6 +109,9 @@ bool deformation_conditioned(const Mat3& F);
 // K = Σ ω ξ⊗ξ V_j and N = Σ ω η⊗ξ V_j over p's bonds (alive ones only, or all), in the neighbour
 // list's order; returns the number of bonds summed (F = N K⁻¹ when family_fits).
 std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N);
+// F = N K⁻¹ when the family fits, replaced by its rotation when badly stretched or inverted; false
+// (F untouched) when the family does not fit. The held rotations and the surface frames use it.
+bool fitted_deformation(const Mat3& K, const Mat3& N, std::uint32_t alive, Mat3& F);
 // surface_frames.cpp: the deformation of each particle whose boundary faces may reach a collider in the
 // next step (ParticleState::surface_frame); at set-up, at the end of every step (surface_frame_system).
 void update_surface_frames(WorldState& world);
