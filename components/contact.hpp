@@ -45,8 +45,9 @@ struct ContactPairs {
   std::size_t stamp_slots = 0;
   std::uint64_t stamp_base = 0;            // advanced by (particles + 1) per build pass
   std::uint64_t broken_at_build = 0;       // Σ broken bonds at the last build or addition
-  std::vector<std::uint8_t> alive_at_build;  // bonds.alive as of then (per directed bond): the bonds
-                                             // that broke since are the list's only new candidates
+  std::vector<std::uint64_t> alive_at_build;  // bonds.alive as of then, one bit per directed bond k
+                                              // (bit k % 64 of word k / 64): the bonds that broke
+                                              // since are the list's only new candidates
   std::vector<std::uint32_t> broken_seen;    // per particle: its broken-bond count as of then, so
                                              // only particles with new breaks scan their bonds
   std::vector<std::uint32_t> offsets_next, neighbor_next;  // double buffers for adding pairs
@@ -85,16 +86,18 @@ struct Projectile {
 
 struct ProjectileSet {
   std::vector<Projectile> bodies;
-  // Per particle and projectile (index i·P + p): the force the projectile puts on particle i, N,
-  // and its torque about the projectile's center (arm × (−f)), N·m. Sized at setup.
-  std::vector<Vec3> particle_force;
-  std::vector<Vec3> torque;
-  // This step's touching particles, in increasing particle index: per particle, for each projectile p,
-  // its force on the particle then its torque (6 doubles × projectiles). The projectiles sum it in this
-  // order; a distributed run concatenates every rank's list in rank order first, which is the same
-  // order. Reserved at setup; touched[i] = 1 when particle i touches some projectile.
+  // This step's touching particles by fixed blocks of kBlock consecutive particles (block b holds
+  // particles [b·kBlock, (b+1)·kBlock)): for each touching particle of the block in increasing index,
+  // for each projectile p, the force p puts on it (N) then that force's torque about p's centre,
+  // arm × (−f) (N·m): 6 doubles × projectiles per particle. Blocks are filled in parallel; only
+  // particles near a projectile write anything (per-particle slots for every particle and projectile
+  // cost 48 B each and were rewritten every step).
+  static constexpr std::size_t kBlock = 1024;
+  std::vector<std::vector<double>> block_contacts;
+  // The blocks' lists joined in block order, so in increasing particle index. The projectiles sum it
+  // in this order; a distributed run concatenates every rank's list in rank order first, which is the
+  // same order.
   std::vector<double> contacts;
-  std::vector<std::uint8_t> touched;
 };
 
 }  // namespace perifx

@@ -236,10 +236,8 @@ void for_each_array(W& w, F&& f) {
   f(K::contact, "contact.pairs.found_by", c.pairs.found_by);
   f(K::contact, "contact.pairs.broken_seen", c.pairs.broken_seen);
   f(K::other, "projectiles.bodies", w.projectiles.bodies);
-  f(K::other, "projectiles.particle_force", w.projectiles.particle_force);
-  f(K::other, "projectiles.torque", w.projectiles.torque);
+  for (auto& block : w.projectiles.block_contacts) f(K::other, "projectiles.block_contacts", block);
   f(K::other, "projectiles.contacts", w.projectiles.contacts);
-  f(K::other, "projectiles.touched", w.projectiles.touched);
   f(K::other, "global_index", w.global_index);
   f(K::other, "boundary.constrained", w.boundary.constrained);
   for (auto& list : w.boundary.particles) f(K::other, "boundary.particles", list);

@@ -58,6 +58,7 @@
 #include <oneapi/tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -169,12 +170,41 @@ bool has_new_breaks(const WorldState& w, std::size_t i) {
   return w.state.broken_bonds[i] != w.contact.pairs.broken_seen[i];
 }
 
-// Records that the list has taken in i's breaks.
+// Whether bond k was alive when the list last took in its particle's breaks (ContactPairs::alive_at_build).
+bool was_alive_at_build(const ContactPairs& pr, std::uint32_t k) { return (pr.alive_at_build[k / 64] >> (k % 64)) & 1u; }
+
+// Records that the list has taken in i's breaks. i's bits may share their first and last words with
+// the neighbouring particles', which other tasks update at the same time: each word is changed with
+// atomic AND/OR on i's bits only (the bits are read only in other passes of the update).
 void take_in_breaks(WorldState& w, std::size_t i) {
   auto& pr = w.contact.pairs;
   const auto& b = w.bonds;
-  for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) pr.alive_at_build[k] = b.alive[k];
+  for (std::uint32_t k = b.offsets[i], end = b.offsets[i + 1]; k < end;) {
+    const std::uint32_t word = k / 64, stop = std::min<std::uint32_t>(end, (word + 1) * 64);
+    std::uint64_t mask = 0, bits = 0;
+    for (; k < stop; ++k) {
+      mask |= std::uint64_t{1} << (k % 64);
+      bits |= std::uint64_t{b.alive[k] != 0} << (k % 64);
+    }
+    std::atomic_ref<std::uint64_t> target(pr.alive_at_build[word]);
+    target.fetch_and(~mask | bits, std::memory_order_relaxed);
+    target.fetch_or(bits, std::memory_order_relaxed);
+  }
   pr.broken_seen[i] = w.state.broken_bonds[i];
+}
+
+// alive_at_build = bonds.alive, all bonds (word by word, each word written by one task).
+void take_in_all_breaks(WorldState& w) {
+  auto& pr = w.contact.pairs;
+  const auto& alive = w.bonds.alive;
+  const std::size_t m = alive.size();
+  parallel_for_each(pr.alive_at_build.size(), [&](std::size_t word) {
+    std::uint64_t bits = 0;
+    for (std::size_t k = 64 * word, end = std::min(m, 64 * word + 64); k < end; ++k)
+      bits |= std::uint64_t{alive[k] != 0} << (k % 64);
+    pr.alive_at_build[word] = bits;
+  }, 1024);
+  std::copy(w.state.broken_bonds.begin(), w.state.broken_bonds.end(), pr.broken_seen.begin());
 }
 
 // A bond k of particle i that broke since the last update, whose ends are now within reach + ¼ skin.
@@ -183,7 +213,7 @@ bool newly_broken_in_reach(const WorldState& w, std::size_t i, std::uint32_t k) 
   const auto& y = w.particles.position;
   const double add_reach = w.contact.grid.cell + kBrokenReachExtra * w.contact.pairs.skin;
   const double reach2 = add_reach * add_reach;
-  return w.contact.pairs.alive_at_build[k] && !b.alive[k] && (y[b.neighbor[k]] - y[i]).squaredNorm() < reach2;
+  return was_alive_at_build(w.contact.pairs, k) && !b.alive[k] && (y[b.neighbor[k]] - y[i]).squaredNorm() < reach2;
 }
 
 // Puts every particle's candidates in increasing global index (WorldState::global_index; the local
@@ -368,8 +398,7 @@ void rebuild_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& centroid
               pr.neighbor.begin() + pr.found_by[i]);
   }, 4096);
   parallel_for_each(n, [&](std::size_t i) { pr.built_position[i] = p.position[i] - centroid; }, 4096);
-  std::copy(w.bonds.alive.begin(), w.bonds.alive.end(), pr.alive_at_build.begin());
-  std::copy(w.state.broken_bonds.begin(), w.state.broken_bonds.end(), pr.broken_seen.begin());
+  take_in_all_breaks(w);
   pr.broken_at_build = broken_now;
   pr.valid = true;
   ++pr.builds;
@@ -391,14 +420,15 @@ void allocate_pairs(WorldState& w) {
   auto& pr = c.pairs;
   pr.offsets.assign(n + 1, 0);
   pr.count.assign(n, 0);
-  // The large buffers are cleared by all threads (assign_huge_pages): at 9e5 particles and 1.4e8 bonds
-  // they are about 230 MB, and the kernel's page clearing of them was 0.8 s of one thread.
+  // The large buffers are cleared by all threads (assign_huge_pages): at 9e5 particles they are about
+  // 100 MB, and the kernel's page clearing of them on one thread was most of a second. The bonds' bits
+  // (alive_at_build, 17 MB at 1.4e8 bonds) are small enough for one.
   assign_huge_pages(pr.scratch, n * ContactPairs::kScratchPerParticle, 0u);
   assign_huge_pages(pr.built_position, n, Vec3(Vec3::Zero()));
   pr.neighbor.reserve(2 * n);
   pr.neighbor_next.reserve(2 * n);
   pr.offsets_next.assign(n + 1, 0);
-  assign_huge_pages(pr.alive_at_build, w.bonds.alive.size(), std::uint8_t{1});
+  pr.alive_at_build.assign((w.bonds.alive.size() + 63) / 64, ~std::uint64_t{0});
   pr.moved.assign(n, 0);
   pr.moved_list.reserve(n);
   pr.moved_offsets.assign(n + 1, 0);

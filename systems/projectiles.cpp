@@ -63,11 +63,13 @@ void setup_projectiles(WorldState& w) {
 void resize_projectiles(WorldState& w) {
   auto& set = w.projectiles;
   const std::size_t n = set.bodies.empty() ? 0 : w.particles.count();
-  const std::size_t slots = n * set.bodies.size();
-  // n × projectiles each (130 MB at 9e5 particles and 3 projectiles): cleared by all threads.
-  assign_huge_pages(set.particle_force, slots, Vec3(Vec3::Zero()));
-  assign_huge_pages(set.torque, slots, Vec3(Vec3::Zero()));
-  set.touched.assign(n, 0);
+  // Each block's list is reserved for 64 touching particles, so a step rarely grows one.
+  const std::size_t blocks = (n + ProjectileSet::kBlock - 1) / ProjectileSet::kBlock;
+  set.block_contacts.resize(blocks);
+  for (auto& block : set.block_contacts) {
+    block.clear();
+    block.reserve(64 * 6 * set.bodies.size());
+  }
   set.contacts.clear();
   set.contacts.reserve(std::min<std::size_t>(n, 4096) * 6 * set.bodies.size());
 }
@@ -98,101 +100,104 @@ SystemDecl projectile_contact_system(WorldState& w, const std::function<void(std
             const bool add = c.enabled;
             const SurfacePatches& sf = w.surface;
             const bool faces = w.settings.solver == scene::Solver::peridynamics && !sf.radius.empty();
-            parallel_for_each(n, [&](std::size_t i) {
-              set.touched[i] = 0;
-              if (!w.owns(i)) return;  // a ghost: its owner computes its contacts
-              Vec3 total = Vec3::Zero();
-              const Vec3 yi = p.position[i];
-              const double mi = p.mass[i];
-              const double reach = 0.5 * c.distance_factor * c.size[i];
-              // i's boundary faces (none for interior particles, and none in FEM worlds).
-              std::uint32_t face_begin = 0, face_end = 0;
-              double far = reach;
-              if (faces) {
-                face_begin = sf.offsets[i];
-                face_end = sf.offsets[i + 1];
-                for (std::uint32_t q = face_begin; q < face_end; ++q)
-                  far = std::max(far, sf.offset[q].norm() + sf.radius[q]);
-              }
-              for (std::size_t k = 0; k < np; ++k) {
-                const Projectile& pr = set.bodies[k];
-                Vec3& f_out = set.particle_force[i * np + k];
-                Vec3& t_out = set.torque[i * np + k];
-                const Vec3 r = yi - pr.center;
-                const double d2 = r.squaredNorm();
-                const double contact = pr.radius + reach;
-                const double bound = pr.radius + far;
-                if (d2 >= bound * bound) {
-                  f_out = Vec3::Zero();
-                  t_out = Vec3::Zero();
+            // By fixed blocks of particles (ProjectileSet::kBlock), each block's touching particles
+            // appended to its own list in index order: the joined lists are in particle index order
+            // for any thread count.
+            const std::size_t blocks = set.block_contacts.size();
+            parallel_for_each(blocks, [&](std::size_t b) {
+              std::vector<double>& out = set.block_contacts[b];
+              out.clear();
+              for (std::size_t i = b * ProjectileSet::kBlock, end = std::min(n, (b + 1) * ProjectileSet::kBlock);
+                   i < end; ++i) {
+                if (!w.owns(i)) continue;  // a ghost: its owner computes its contacts
+                const Vec3 yi = p.position[i];
+                const double reach = 0.5 * c.distance_factor * c.size[i];
+                // i's boundary faces (none for interior particles, and none in FEM worlds).
+                std::uint32_t face_begin = 0, face_end = 0;
+                double far = reach;
+                if (faces) {
+                  face_begin = sf.offsets[i];
+                  face_end = sf.offsets[i + 1];
+                  for (std::uint32_t q = face_begin; q < face_end; ++q)
+                    far = std::max(far, sf.offset[q].norm() + sf.radius[q]);
+                }
+                bool near = false;  // within some projectile's bound: the only particles that can touch
+                for (std::size_t k = 0; k < np; ++k) {
+                  const double bound = set.bodies[k].radius + far;
+                  near = near || (yi - set.bodies[k].center).squaredNorm() < bound * bound;
+                }
+                if (!near) {  // as a touch-free particle below (+ 0.0 turns a −0.0 into +0.0)
+                  w.state.contact_force[i] = add ? Vec3(w.state.contact_force[i] + Vec3::Zero()) : Vec3(Vec3::Zero());
                   continue;
                 }
-                // The particle's boundary faces (discs, moved with the particle's displacement), then
-                // its sphere of reach: the deepest penetration, along its direction.
-                double penetration = 0.0;
-                Vec3 nrm = Vec3::UnitY();
-                bool outside_a_face = false;
-                for (std::uint32_t q = face_begin; q < face_end; ++q) {
-                  const double radius = sf.radius[q];
-                  if (radius == 0.0) continue;  // a layer share of a traction, not a face
-                  const Vec3 centre = yi + sf.offset[q];
-                  const Vec3& normal = sf.normal[q];
-                  const Vec3 rel = pr.center - centre;
-                  const double height = rel.dot(normal);
-                  if (!(height > 0.0)) continue;  // the sphere's centre is not outside the face
-                  outside_a_face = true;
-                  Vec3 lateral = rel - height * normal;
-                  const double spread = lateral.norm();
-                  if (spread > radius) lateral *= radius / spread;
-                  const Vec3 to_face = centre + lateral - pr.center;  // sphere centre → nearest disc point
-                  const double gap = to_face.norm();
-                  if (pr.radius - gap > penetration && gap > 0.0) {
-                    penetration = pr.radius - gap;
-                    nrm = to_face / gap;
+                const std::size_t mark = out.size();
+                out.resize(mark + 6 * np, 0.0);
+                Vec3 total = Vec3::Zero();
+                const double mi = p.mass[i];
+                bool touched = false;
+                for (std::size_t k = 0; k < np; ++k) {
+                  const Projectile& pr = set.bodies[k];
+                  const Vec3 r = yi - pr.center;
+                  const double d2 = r.squaredNorm();
+                  const double contact = pr.radius + reach;
+                  const double bound = pr.radius + far;
+                  if (d2 >= bound * bound) continue;
+                  // The particle's boundary faces (discs, moved with the particle's displacement), then
+                  // its sphere of reach: the deepest penetration, along its direction.
+                  double penetration = 0.0;
+                  Vec3 nrm = Vec3::UnitY();
+                  bool outside_a_face = false;
+                  for (std::uint32_t q = face_begin; q < face_end; ++q) {
+                    const double radius = sf.radius[q];
+                    if (radius == 0.0) continue;  // a layer share of a traction, not a face
+                    const Vec3 centre = yi + sf.offset[q];
+                    const Vec3& normal = sf.normal[q];
+                    const Vec3 rel = pr.center - centre;
+                    const double height = rel.dot(normal);
+                    if (!(height > 0.0)) continue;  // the sphere's centre is not outside the face
+                    outside_a_face = true;
+                    Vec3 lateral = rel - height * normal;
+                    const double spread = lateral.norm();
+                    if (spread > radius) lateral *= radius / spread;
+                    const Vec3 to_face = centre + lateral - pr.center;  // sphere centre → nearest disc point
+                    const double gap = to_face.norm();
+                    if (pr.radius - gap > penetration && gap > 0.0) {
+                      penetration = pr.radius - gap;
+                      nrm = to_face / gap;
+                    }
                   }
-                }
-                // The sphere of reach only where no face of the particle stands between it and the
-                // projectile: seen from outside a face, the face is the body's surface, and the sphere
-                // of reach can reach past it (by 2.8 mm on the 5 cm cells of the fig07 preview, which
-                // then broke 43 % earlier than its final).
-                if (!outside_a_face && d2 < contact * contact) {
-                  const double d = std::sqrt(d2);
-                  if (contact - d > penetration) {
-                    penetration = contact - d;
-                    nrm = d > 0.0 ? Vec3(r / d) : Vec3(Vec3::UnitY());
+                  // The sphere of reach only where no face of the particle stands between it and the
+                  // projectile: seen from outside a face, the face is the body's surface, and the sphere
+                  // of reach can reach past it (by 2.8 mm on the 5 cm cells of the fig07 preview, which
+                  // then broke 43 % earlier than its final).
+                  if (!outside_a_face && d2 < contact * contact) {
+                    const double d = std::sqrt(d2);
+                    if (contact - d > penetration) {
+                      penetration = contact - d;
+                      nrm = d > 0.0 ? Vec3(r / d) : Vec3(Vec3::UnitY());
+                    }
                   }
+                  if (!(penetration > 0.0)) continue;
+                  const Vec3 arm = pr.radius * nrm;
+                  const double m_pair = mi * pr.mass / (mi + pr.mass);
+                  const double kk = c.stiffness_factor * mi * inv_dt2;
+                  const Vec3 vrel = p.velocity[i] - (pr.velocity + pr.angular_velocity.cross(arm));
+                  const ContactForce cf =
+                      contact_force(penetration, nrm, vrel, kk, m_pair, c.damping_ratio, pr.friction, inv_dt);
+                  Vec3 f = cf.normal * nrm;
+                  if (cf.sliding) f -= cf.friction;
+                  const Vec3 t = arm.cross(Vec3(-f));
+                  double* slot = out.data() + mark + 6 * k;
+                  slot[0] = f.x(), slot[1] = f.y(), slot[2] = f.z(), slot[3] = t.x(), slot[4] = t.y(), slot[5] = t.z();
+                  total += f;
+                  touched = true;
                 }
-                if (!(penetration > 0.0)) {
-                  f_out = Vec3::Zero();
-                  t_out = Vec3::Zero();
-                  continue;
-                }
-                const Vec3 arm = pr.radius * nrm;
-                const double m_pair = mi * pr.mass / (mi + pr.mass);
-                const double kk = c.stiffness_factor * mi * inv_dt2;
-                const Vec3 vrel = p.velocity[i] - (pr.velocity + pr.angular_velocity.cross(arm));
-                const ContactForce cf =
-                    contact_force(penetration, nrm, vrel, kk, m_pair, c.damping_ratio, pr.friction, inv_dt);
-                Vec3 f = cf.normal * nrm;
-                if (cf.sliding) f -= cf.friction;
-                f_out = f;
-                t_out = arm.cross(Vec3(-f));
-                total += f;
-                set.touched[i] = 1;
+                if (!touched) out.resize(mark);  // particles that touch nothing would add exact zeros
+                w.state.contact_force[i] = add ? Vec3(w.state.contact_force[i] + total) : total;
               }
-              w.state.contact_force[i] = add ? Vec3(w.state.contact_force[i] + total) : total;
-            }, 1024);
-            // The touching particles in index order (serial: the list's order is the sum's order).
-            // Particles that touch no projectile would add exact zeros, so leaving them out changes no bit.
+            }, 1);
             set.contacts.clear();
-            for (std::size_t i = 0; i < n; ++i) {
-              if (!set.touched[i]) continue;
-              for (std::size_t k = 0; k < np; ++k) {
-                const Vec3& f = set.particle_force[i * np + k];
-                const Vec3& t = set.torque[i * np + k];
-                set.contacts.insert(set.contacts.end(), {f.x(), f.y(), f.z(), t.x(), t.y(), t.z()});
-              }
-            }
+            for (const auto& block : set.block_contacts) set.contacts.insert(set.contacts.end(), block.begin(), block.end());
             if (gather && *gather) (*gather)(set.contacts);  // every rank's list, in rank order
             const std::size_t entries = set.contacts.size() / (6 * std::max<std::size_t>(np, 1));
             for (std::size_t k = 0; k < np; ++k) {

@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'P', 'E', 'R', 'I', 'F', 'X', 'C', 'K'};
-constexpr std::uint32_t kVersion = 9;  // 2: embedded.held_deformation, embedded.held_tracked;
+constexpr std::uint32_t kVersion = 10;  // 2: embedded.held_deformation, embedded.held_tracked;
                                        // 3: contact moved-particle updates (per-particle search positions);
                                        // 4: no per-bond |ξ|, ω, mirror index; e^p as float (issue 16);
                                        // 5: model.anisotropy_metric (GᵀG per particle);
@@ -25,9 +25,13 @@ constexpr std::uint32_t kVersion = 9;  // 2: embedded.held_deformation, embedded
                                        // 7: projectiles.contacts and .touched, global_index
                                        // 8: surface.radius (faces for projectiles)
                                        // 9: state.surface_frame (faces for colliders)
+                                       // 10: no projectiles.particle_force, .torque, .touched
 
-// Worker-slot scratch: sized by the thread count, so a resume on another thread count keeps its own.
-bool thread_dependent(std::string_view name) { return name == "contact.pairs.bonded_stamp"; }
+// Not saved: worker-slot scratch (sized by the thread count, so a resume on another thread count keeps
+// its own) and the projectiles' per-block contact lists (refilled by every step before any reads).
+bool not_saved(std::string_view name) {
+  return name == "contact.pairs.bonded_stamp" || name == "projectiles.block_contacts";
+}
 
 // The scalars of a WorldState that no array holds, in one fixed order for writing and reading.
 template <class W, class F>
@@ -145,7 +149,7 @@ void write_checkpoint(const fs::path& file, const WorldState& w, CheckpointHeade
     out.write(reinterpret_cast<const char*>(&kVersion), sizeof kVersion);
     put_text(out, header_json(h).dump());
     for_each_array(w, [&](ArrayKind, const char* name, const auto& array) {
-      if (thread_dependent(name)) return;
+      if (not_saved(name)) return;
       using T = std::decay_t<decltype(array[0])>;
       put_text(out, name);
       const std::uint32_t size = sizeof(T);
@@ -205,7 +209,7 @@ CheckpointHeader read_checkpoint(const fs::path& file, WorldState& w) {
   Reader in(read_file(file, "checkpoint"), file);
   CheckpointHeader h = read_header(in);
   for_each_array(w, [&](ArrayKind, const char* name, auto& array) {
-    if (thread_dependent(name)) return;
+    if (not_saved(name)) return;
     using T = std::decay_t<decltype(array[0])>;
     if (const std::string got = in.text(); got != name) bad(file, "expected array '" + std::string(name) + "', found '" + got + "'");
     const auto size = in.value<std::uint32_t>();

@@ -6,12 +6,16 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <limits>
+
+#include <oneapi/tbb/parallel_for.h>
 
 #include "geometry/geometry.hpp"
 #include "setup/world_setup.hpp"
 #include "systems/bond_rules.hpp"
 #include "systems/huge_pages.hpp"
+#include "systems/parallel.hpp"
 
 namespace perifx::setup {
 namespace {
@@ -63,7 +67,9 @@ TetMesh placed_mesh(const scene::Scene& scene, std::size_t bi) {
        kind == scene::Geometry::Kind::cylinder))
     geometry::jitter_vertices(mesh, body.geometry.jitter, static_cast<std::uint64_t>(body.geometry.seed),
                               body.geometry.mirror);
-  for (Vec3& v : mesh.vertices) v = body.transform.rotation * (body.transform.scale * v) + body.transform.translation;
+  parallel_for_each(mesh.vertices.size(), [&](std::size_t v) {
+    mesh.vertices[v] = body.transform.rotation * (body.transform.scale * mesh.vertices[v]) + body.transform.translation;
+  }, 4096);
   if (mesh.tets.empty()) body_error(scene, bi, "the mesh has no tetrahedra (got 0; expected at least one)");
   // Degenerate placement (scale 1e300, radius 1e-300 ...): every coordinate finite and within
   // kMaxCoordinate, every tet with a positive, normal (not subnormal) volume.
@@ -74,8 +80,10 @@ TetMesh placed_mesh(const scene::Scene& scene, std::size_t bi) {
       body_error(scene, bi, "vertex " + std::to_string(v) + " out of range after the transform (got " + buf +
                                 " m; expected finite coordinates within 1e9 m)");
     }
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-    const double vol = geometry::tet_volume(mesh, t);
+  std::vector<double> volume(mesh.tets.size());
+  parallel_for_each(mesh.tets.size(), [&](std::size_t t) { volume[t] = geometry::tet_volume(mesh, t); }, 4096);
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {  // the first bad tet is the one reported
+    const double vol = volume[t];
     if (!(vol >= std::numeric_limits<double>::min()) || !std::isfinite(vol)) {
       char buf[64];
       std::snprintf(buf, sizeof buf, "%.3g", vol);
@@ -84,7 +92,7 @@ TetMesh placed_mesh(const scene::Scene& scene, std::size_t bi) {
     }
   }
   std::vector<Vec3> centers(mesh.tets.size());
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t) centers[t] = geometry::tet_barycenter(mesh, t);
+  parallel_for_each(mesh.tets.size(), [&](std::size_t t) { centers[t] = geometry::tet_barycenter(mesh, t); }, 4096);
   geometry::reorder_tets(mesh, geometry::morton_order(centers));
   return mesh;
 }
@@ -92,64 +100,101 @@ TetMesh placed_mesh(const scene::Scene& scene, std::size_t bi) {
 void add_bodies(const scene::Scene& scene, WorldState& w) {
   const bool fem = scene.solver != scene::Solver::peridynamics;
   auto& p = w.particles;
-  for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi) {
-    const scene::Body& body = scene.bodies[bi];
-    TetMesh mesh = placed_mesh(scene, bi);
+  const std::size_t body_count = scene.bodies.size();
+  // Each body's mesh depends on its own spec only, so the bodies are meshed side by side (and each
+  // mesher's loops run in parallel inside). A failure is reported for the lowest failing body, as a
+  // serial loop would.
+  std::vector<TetMesh> meshes(body_count);
+  std::vector<double> mean_edge(body_count, 0.0);
+  std::vector<std::exception_ptr> failure(body_count);
+  tbb::parallel_for(std::size_t{0}, body_count, [&](std::size_t bi) {
+    try {
+      meshes[bi] = placed_mesh(scene, bi);
+      mean_edge[bi] = geometry::mean_edge_length(meshes[bi]);
+    } catch (...) {
+      failure[bi] = std::current_exception();
+    }
+  });
+  for (const auto& f : failure)
+    if (f) std::rethrow_exception(f);
 
+  // Where each body's particles, vertices and tets go in the world's arrays.
+  std::vector<std::size_t> first_particle(body_count + 1, 0), first_tet(body_count + 1, 0);
+  std::size_t vertex_total = 0;
+  for (std::size_t bi = 0; bi < body_count; ++bi) {
+    const TetMesh& mesh = meshes[bi];
+    first_particle[bi + 1] = first_particle[bi] + (fem ? mesh.vertices.size() : mesh.tets.size());
+    first_tet[bi + 1] = first_tet[bi] + mesh.tets.size();
+    vertex_total += mesh.vertices.size();
+  }
+  const std::size_t n = first_particle[body_count];
+  p.reference_position.resize(n);
+  p.volume.resize(n);
+  p.mass.resize(n);
+  p.material_id.resize(n);
+  p.body_id.resize(n);
+  p.velocity.resize(n);
+  w.model.horizon.resize(n);
+  w.mesh.tets.resize(first_tet[body_count]);
+  w.mesh.vertices.reserve(vertex_total);
+
+  for (std::size_t bi = 0; bi < body_count; ++bi) {
+    const scene::Body& body = scene.bodies[bi];
+    const TetMesh& mesh = meshes[bi];
     BodyInfo info;
     info.name = body.name;
-    info.first_particle = static_cast<std::uint32_t>(p.reference_position.size());
-    info.particle_count = static_cast<std::uint32_t>(fem ? mesh.vertices.size() : mesh.tets.size());
+    info.first_particle = static_cast<std::uint32_t>(first_particle[bi]);
+    info.particle_count = static_cast<std::uint32_t>(first_particle[bi + 1] - first_particle[bi]);
     info.first_vertex = static_cast<std::uint32_t>(w.mesh.vertices.size());
     info.vertex_count = static_cast<std::uint32_t>(mesh.vertices.size());
-    info.mean_edge_length = geometry::mean_edge_length(mesh);
+    info.mean_edge_length = mean_edge[bi];
     info.horizon = body.horizon_length > 0.0 ? body.horizon_length : body.horizon_factor * info.mean_edge_length;
 
     const auto& mat = scene.materials[static_cast<std::size_t>(body.material)];
-    const std::size_t first = p.reference_position.size();
-    std::vector<double> vertex_volume(fem ? mesh.vertices.size() : 0, 0.0);  // lumped: Σ V_t/4
-    for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-      const double vol = geometry::tet_volume(mesh, t);
-      if (fem) {
-        for (auto v : mesh.tets[t]) vertex_volume[v] += 0.25 * vol;
-      } else {
-        const Vec3 c = geometry::tet_barycenter(mesh, t);
-        p.reference_position.push_back(c);
-        p.volume.push_back(vol);
-        p.mass.push_back(mat.density * vol);
-        p.material_id.push_back(static_cast<std::uint16_t>(body.material));
-        p.body_id.push_back(static_cast<std::uint16_t>(bi));
-        w.model.horizon.push_back(info.horizon);
-      }
+    const std::size_t first = first_particle[bi];
+    auto set_particle = [&](std::size_t i, const Vec3& x, double vol) {
+      p.reference_position[i] = x;
+      p.volume[i] = vol;
+      p.mass[i] = mat.density * vol;
+      p.material_id[i] = static_cast<std::uint16_t>(body.material);
+      p.body_id[i] = static_cast<std::uint16_t>(bi);
+      w.model.horizon[i] = info.horizon;
+    };
+    parallel_for_each(mesh.tets.size(), [&](std::size_t t) {
       auto tet = mesh.tets[t];
       for (auto& v : tet) v += info.first_vertex;
-      w.mesh.tets.push_back(tet);
-    }
+      w.mesh.tets[first_tet[bi] + t] = tet;
+      if (!fem) set_particle(first + t, geometry::tet_barycenter(mesh, t), geometry::tet_volume(mesh, t));
+    }, 4096);
     w.mesh.vertices.insert(w.mesh.vertices.end(), mesh.vertices.begin(), mesh.vertices.end());
-    for (std::size_t v = 0; v < vertex_volume.size(); ++v) {
-      if (!(vertex_volume[v] > 0.0))
-        throw geometry::GeometryError("body '" + body.name + "': vertex " + std::to_string(v) +
-                                      " belongs to no tetrahedron; the FEM solver cannot give it a mass");
-      p.reference_position.push_back(mesh.vertices[v]);
-      p.volume.push_back(vertex_volume[v]);
-      p.mass.push_back(mat.density * vertex_volume[v]);
-      p.material_id.push_back(static_cast<std::uint16_t>(body.material));
-      p.body_id.push_back(static_cast<std::uint16_t>(bi));
-      w.model.horizon.push_back(info.horizon);
+    if (fem) {
+      std::vector<double> vertex_volume(mesh.vertices.size(), 0.0);  // lumped: Σ V_t/4, in tet order
+      for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+        const double vol = geometry::tet_volume(mesh, t);
+        for (auto v : mesh.tets[t]) vertex_volume[v] += 0.25 * vol;
+      }
+      for (std::size_t v = 0; v < vertex_volume.size(); ++v) {
+        if (!(vertex_volume[v] > 0.0))
+          throw geometry::GeometryError("body '" + body.name + "': vertex " + std::to_string(v) +
+                                        " belongs to no tetrahedron; the FEM solver cannot give it a mass");
+        set_particle(first + v, mesh.vertices[v], vertex_volume[v]);
+      }
     }
-    // Initial rigid velocity about the body's center of mass.
+    // Initial rigid velocity about the body's center of mass (summed in particle order).
     Vec3 com = Vec3::Zero();
     double total = 0.0;
-    const std::size_t last = p.reference_position.size();
+    const std::size_t last = first_particle[bi + 1];
     for (std::size_t i = first; i < last; ++i) {
       com += p.mass[i] * p.reference_position[i];
       total += p.mass[i];
     }
     com /= total;
-    for (std::size_t i = first; i < last; ++i)
-      p.velocity.push_back(body.velocity + body.angular_velocity.cross(p.reference_position[i] - com));
+    parallel_for_each(last - first, [&](std::size_t k) {
+      p.velocity[first + k] = body.velocity + body.angular_velocity.cross(p.reference_position[first + k] - com);
+    }, 4096);
     w.bodies.push_back(info);
   }
+  meshes = {};
   p.position = p.reference_position;
 }
 

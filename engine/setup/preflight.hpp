@@ -13,13 +13,13 @@ namespace perifx::setup {
 
 // Measured figures (World::memory on the shipped scenes, tests/engine/test_world.cpp): per directed
 // bond 5 B (neighbour, alive flag), 8 B more when some material can yield (e^p and its mirror, float),
-// 4 B more when a weak plane cuts bonds, 1 B more in the contact list when particle contact is on
+// 4 B more when a weak plane cuts bonds, 1 bit more in the contact list when particle contact is on
 // (bytes_per_bond); about 440 B per particle; mesh and embedded mesh about 200 B per tet. Setup holds
 // transient arrays on top (adjacency, Morton keys, the family lists), hence the peak factor.
 inline constexpr double kBytesPerBondState = 5.0;
 inline constexpr double kBytesPerBondPlastic = 8.0;
 inline constexpr double kBytesPerBondScale = 4.0;
-inline constexpr double kBytesPerBondContact = 1.0;
+inline constexpr double kBytesPerBondContact = 0.125;
 inline constexpr double kBytesPerParticle = 440.0;
 inline constexpr double kBytesPerTet = 200.0;
 inline constexpr double kPeakFactor = 1.25;

@@ -97,7 +97,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     throw scene::SceneError(scene.source.string(), "/model/solver",
                             "initial cracks need the peridynamic solver (got an FEM solver; expected 'peridynamics')");
 
-  add_bodies(scene, w);
+  scheduler.execute([&] { add_bodies(scene, w); });
   phase("bodies (mesh, Morton order, particles)");
   w.settings.max_speed = max_speed(scene, w);
   scheduler.execute([&] { allocate_step_state(w); });  // parallel page clearing, in the world's arena
@@ -166,8 +166,10 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
       systems::update_surface_frames(w);
     }
   });
-  systems::setup_contact(w);
-  systems::setup_projectiles(w);
+  scheduler.execute([&] {  // their buffers are cleared by the arena's threads (huge_pages.hpp)
+    systems::setup_contact(w);
+    systems::setup_projectiles(w);
+  });
   phase("contact and projectiles");
   // The per-particle arrays the bond passes gather from into huge pages (systems/huge_pages.hpp; the
   // bond arrays were allocated there). Mesh and contact arrays stay: copying them cost more set-up
