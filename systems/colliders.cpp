@@ -7,7 +7,8 @@
 // projection would move their prescribed components).
 // What meets the collider: the particle's centre and, for a particle whose tet has original boundary
 // faces (peridynamic worlds), those triangles (WorldState::surface), each corner placed at y + F·(X − x)
-// by the particle's surface frame F of the last step's end (surface_frames.cpp; zero → the face moves
+// by the particle's surface frame F of the last step's end (surface_frames.cpp: held while the particle
+// touches a collider, so a push-out does not move the faces it meets next; zero → the face moves
 // with the particle only). The deepest of them decides the push (collider_shapes.hpp). So a body
 // rests on the ground with its mesh surface, the surface an artist renders, rather than with its
 // particle centres, which sit a resolution-dependent fraction of a cell inside it (a 12-cell ball

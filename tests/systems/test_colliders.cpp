@@ -6,6 +6,11 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
 
 #include "support.hpp"
 #include "systems/collider_shapes.hpp"
@@ -49,14 +54,21 @@ TEST_CASE("a body settles on the ground with its mesh surface on the plane, at a
     }
     World world(sc);
     REQUIRE_FALSE(world.state().state.surface_frame.empty());
-    world.step(static_cast<int>(0.25 / world.dt()));
+    // At rest is judged on positions over the last 10 ms: a particle the plane holds up ends each
+    // step with the half kick of its support load in its velocity though it does not move.
+    const int late = static_cast<int>(0.01 / world.dt());
+    world.step(static_cast<int>(0.25 / world.dt()) - late);
+    const std::vector<Vec3> before(world.positions().begin(), world.positions().end());
+    world.step(late);
     const double surface = lowest_surface_y(world), centres = lowest_particle_y(world);
-    double speed = 0.0;
-    for (const Vec3& v : world.velocities()) speed = std::max(speed, v.norm());
+    double speed = 0.0, kick = 0.0;
+    for (std::size_t i = 0; i < before.size(); ++i)
+      speed = std::max(speed, (world.positions()[i] - before[i]).norm() / (late * world.dt()));
+    for (const Vec3& v : world.velocities()) kick = std::max(kick, v.norm());
     MESSAGE("cell " << cell << " m: lowest surface vertex y " << surface << " m (" << surface / cell
-                    << " cell), lowest particle centre " << centres / cell << " cell, fastest particle " << speed
-                    << " m/s");
-    CHECK(speed < 0.01);                                  // at rest
+                    << " cell), lowest particle centre " << centres / cell << " cell, fastest particle over the last 10 ms "
+                    << speed << " m/s (largest velocity " << kick << " m/s)");
+    CHECK(speed < 5e-5);  // at rest (0.5 µm in 10 ms); refitting the frames every step left 1e-4–5e-4 m/s
     CHECK(std::abs(surface) < 0.01 * cell + 1e-4);        // the surface is on the plane
     CHECK(centres > 0.15 * cell);                         // the centres are not what touches it
   }
@@ -165,4 +177,84 @@ TEST_CASE("a particle with no face toward the ground meets it with its sphere of
   CHECK(w.particles.position[interior].y() == doctest::Approx(reach).epsilon(1e-12));
   for (std::size_t i = 0; i < w.particles.count(); ++i)
     if (i != interior) CHECK(w.particles.position[i] == before[i]);
+}
+
+TEST_CASE("a ball resting on the ground plane only loses energy") {
+  // A 0.1 m elastic ball (mass damping 40/s) dropped 1 mm onto a frictionless plane. Once it touches,
+  // nothing but the damping and the plane acts on it, and neither may add energy. Motion is judged
+  // on positions, (y(t) − y(t − dt))/dt: a particle the plane holds up ends each step with the
+  // half kick of its support load in its velocity though it does not move. A push-out whose faces
+  // follow the neighbours' fit every step did work the velocity never saw (found 2026-12-04: the
+  // ball spun up in place, its motion 2e-4 J after 0.1 s).
+  // Three meshes: the built-in mesher's ball at 8 and 12 cells across (stair-stepped where its
+  // carve-and-snap holds vertices back) and the 320-facet icosphere filled by tetgen (no grid at all).
+  const bool tetgen = std::system("command -v tetgen > /dev/null 2>&1") == 0;
+  if (!tetgen) MESSAGE("tetgen is not installed: the icosphere ball is skipped");
+  for (const double cells : {8.0, 12.0, -12.0}) {
+    if (cells < 0.0 && !tetgen) continue;
+    CAPTURE(cells);
+    const double radius = 0.05, cell = 2.0 * radius / std::abs(cells);
+    auto sc = test::box_scene(Vec3(1, 1, 1), cell, 1.0e6, 6.0e5, 1000.0);
+    if (cells > 0.0) {
+      sc.bodies[0].geometry.kind = scene::Geometry::Kind::sphere;
+      sc.bodies[0].geometry.radius = radius;
+    } else {
+      sc.bodies[0].geometry.kind = scene::Geometry::Kind::surface;
+      sc.bodies[0].geometry.path = std::filesystem::path(PERIFX_SOURCE_DIR) / "assets/meshes/icosphere.obj";
+      sc.bodies[0].geometry.edge_length = 2.0 * cell;  // the file's radius is 0.1 m; scaled by 0.5 below
+      sc.bodies[0].transform.scale = 0.5;
+      // Resting on a vertex or an edge the faceted ball would tip over onto a facet, a motion gravity
+      // drives; so it is turned to land on its first facet (the file's first triangle).
+      std::vector<Vec3> v;
+      std::array<int, 3> f{};
+      std::ifstream obj(sc.bodies[0].geometry.path);
+      for (std::string tag; obj >> tag;) {
+        if (tag == "v") v.emplace_back(), obj >> v.back().x() >> v.back().y() >> v.back().z();
+        else if (tag == "f" && f[0] == 0) obj >> f[0] >> f[1] >> f[2];
+        else std::getline(obj, tag);
+      }
+      REQUIRE(v.size() == 162);
+      const Vec3 n = (v[f[1] - 1] - v[f[0] - 1]).cross(v[f[2] - 1] - v[f[0] - 1]).normalized();
+      const Mat3 turn = Eigen::Quaterniond::FromTwoVectors(n.dot(v[f[0] - 1]) > 0.0 ? n : Vec3(-n), -Vec3::UnitY())
+                            .toRotationMatrix();
+      sc.bodies[0].transform.rotation = turn;
+      double lowest = kInfinity;
+      for (const Vec3& x : v) lowest = std::min(lowest, (turn * (0.5 * x)).y());
+      sc.bodies[0].transform.translation = Vec3(0.0, 0.001 - lowest, 0.0);
+    }
+    if (cells > 0.0) sc.bodies[0].transform.translation = Vec3(0.0, radius + 0.001, 0.0);
+    sc.materials[0].damping = 40.0;
+    sc.gravity = Vec3(0.0, -9.81, 0.0);
+    scene::Collider ground;
+    sc.colliders.push_back(ground);
+    {
+      World probe(sc);
+      sc.time.dt = 0.5 * probe.stable_time_step();
+    }
+    World world(sc);
+    const double mass = 1000.0 * 4.0 / 3.0 * M_PI * radius * radius * radius / double(world.particle_count());
+    std::vector<Vec3> before(world.positions().begin(), world.positions().end());
+    const auto motion_energy = [&] {  // Σ ½ m |Δy/dt|², with the mean particle mass
+      double e = 0.0;
+      for (std::size_t i = 0; i < before.size(); ++i)
+        e += 0.5 * mass * ((world.positions()[i] - before[i]) / world.dt()).squaredNorm();
+      before.assign(world.positions().begin(), world.positions().end());
+      return e;
+    };
+    // The envelope: the largest energy of motion over 30 ms (more than a period of the ball's
+    // bounce on the plane, about 20 ms) from 0.1 s and from 0.2 s. The mass damping c = 40/s takes an
+    // oscillation's energy down by e^(−c Δt) = e^(−4) ≈ 0.018 over 0.1 s; the plane may only add loss.
+    const double window = 0.03;
+    double early = 0.0, late = 0.0;
+    const auto steps = static_cast<int>((0.2 + window) / world.dt());
+    for (int k = 0; k < steps; ++k) {
+      world.step();
+      const double t = (k + 1) * world.dt(), e = motion_energy();
+      if (t >= 0.1 && t < 0.1 + window) early = std::max(early, e);
+      if (t >= 0.2) late = std::max(late, e);
+    }
+    MESSAGE(world.particle_count() << " particles: largest energy of motion " << early << " J over 0.10–0.13 s, "
+                                   << late << " J over 0.20–0.23 s, ratio " << late / early);
+    CHECK(late < 0.05 * early);
+  }
 }
