@@ -23,8 +23,12 @@ namespace perifx::geometry {
 // mirror[a]: mirror-symmetric about the centre plane normal to axis a (when its cell count is even):
 // the cubes on the lower side are split around the mirror image of the upper side's diagonal.
 TetMesh mesh_box(const Vec3& size, double cell, const std::array<bool, 3>& mirror = {});
-// Sphere and cylinder: the cubes of a grid covering the shape, tets kept when their barycenter is
-// inside, then boundary vertices moved onto the true surface where that keeps every tet valid.
+// Sphere and cylinder: the grid covering the shape cut at the true surface (vertices within 0.4 of an
+// edge from the surface moved onto it, the tets crossing it cut into 1–3 tets each), so every boundary
+// vertex is on the surface and no tet is below ~9 % of a grid tet (worst mean ratio 0.31–0.55 at 3–40
+// cells across). Where the cut fails (it would leave a tet below 2 %, or two pieces), the older
+// carve-and-snap: tets with the barycenter inside, boundary vertices moved onto the surface where
+// that keeps every tet valid (some held back, seen as pits).
 TetMesh mesh_sphere(double radius, double cell, const std::array<bool, 3>& mirror = {});
 TetMesh mesh_cylinder(double radius, double height, int axis, double cell, const std::array<bool, 3>& mirror = {});
 // jitter.cpp: moves every vertex by a seeded random offset of up to `amplitude` × its shortest edge
