@@ -122,6 +122,16 @@ inline Penetration triangle_penetration(const PlacedCollider& pc, const std::arr
   return out;
 }
 
+// A boundary face of a particle at x (its corners relative to the particle's reference position),
+// placed by the particle's frame F (nullptr: moved with the particle only, not turned), and how deep
+// it is in the collider. The colliders and the surface frames' touching test place faces alike.
+inline Penetration face_penetration(const PlacedCollider& pc, const Vec3& x, const Mat3* F,
+                                    const std::array<Vec3, 3>& corner) {
+  std::array<Vec3, 3> placed;
+  for (int k = 0; k < 3; ++k) placed[k] = x + (F ? Vec3(*F * corner[k]) : corner[k]);
+  return triangle_penetration(pc, placed);
+}
+
 // A point: the triangle with three equal corners.
 inline Penetration point_penetration(const PlacedCollider& pc, const Vec3& y) { return triangle_penetration(pc, {y, y, y}); }
 

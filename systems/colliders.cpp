@@ -87,11 +87,9 @@ SystemDecl collider_system(WorldState& w) {
                 centre = true;
                 for (std::uint32_t q = face_begin; q < face_end; ++q) {
                   if (!(sf.radius[q] > 0.0)) continue;  // a layer share of a traction, not a face
-                  std::array<Vec3, 3> corners;
-                  for (int k = 0; k < 3; ++k) corners[k] = x + (framed ? Vec3(F * sf.corner[q][k]) : sf.corner[q][k]);
                   // A face turned toward the collider is the surface there (then no sphere of reach).
                   facing = facing || (normal_map * sf.normal[q]).dot(at_centre.normal) < 0.0;
-                  const Penetration pen = triangle_penetration(pc, corners);
+                  const Penetration pen = face_penetration(pc, x, framed ? &F : nullptr, sf.corner[q]);
                   if (pen.depth > deepest.depth) deepest = pen, centre = false;
                 }
                 if (reach > 0.0 && !facing) {

@@ -80,9 +80,7 @@ void update_surface_frames(WorldState& w) {
       if (was_held && near && !touching)
         for (std::uint32_t q = sf.offsets[i]; q < sf.offsets[i + 1]; ++q) {
           if (!(sf.radius[q] > 0.0)) continue;
-          std::array<Vec3, 3> corners;
-          for (int k = 0; k < 3; ++k) corners[k] = p.position[i] + F_held * sf.corner[q][k];
-          if (triangle_penetration(pc, corners).depth > -(margin + 0.02 * reach)) touching = true;
+          if (face_penetration(pc, p.position[i], &F_held, sf.corner[q]).depth > -(margin + 0.02 * reach)) touching = true;
         }
     }
     if (!near) return;
