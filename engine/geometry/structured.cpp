@@ -344,10 +344,11 @@ bool cut_and_warp(const TetMesh& grid, const GridLayout& layout, const CurvedSha
   static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
 
   // 1–2. Signs, and the warp of vertices too near a crossing (decided from the grid positions).
-  std::vector<double> level(nv);
-  for (std::size_t v = 0; v < nv; ++v) level[v] = shape.level(grid.vertices[v]);
   std::vector<int> sign(nv);
-  for (std::size_t v = 0; v < nv; ++v) sign[v] = level[v] < 0.0 ? -1 : (level[v] > 0.0 ? 1 : 0);
+  for (std::size_t v = 0; v < nv; ++v) {
+    const double level = shape.level(grid.vertices[v]);
+    sign[v] = level < 0.0 ? -1 : (level > 0.0 ? 1 : 0);
+  }
   std::vector<double> warp_distance(nv, kInfinity);
   std::vector<Vec3> warp_to(nv);
   std::vector<char> tie(nv, 0);
