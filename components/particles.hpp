@@ -67,14 +67,17 @@ struct ParticleModel {
 // particle: one cache line per neighbour instead of nine scattered arrays. A copy of the arrays it
 // is made from (ParticleModel, ParticleState), refreshed by the bond pass itself at its start.
 struct alignas(64) BondEnd {
+  // What the force needs (every bond pass) ...
   double coupling;         // P_j, Pa/m⁴ (ParticleState::dilatation_coupling)
   double b4;               // 4b_j, Pa/m⁵
   double volume;           // V_j, m³
+  double horizon;          // δ_j, m
+  // ... and what plasticity and fracture add: each half is loaded as one 32-byte vector
+  // (systems/bond_gather.hpp), so the order matters.
   double beta_theta;       // β_j θ_j, m
   double yield_extension;  // Y_j (ParticleModel::yield_extension)
   double plastic_cap;      // γ/|ξ| of j's material
   double break_extension;  // (1 + α_j φ_j) s_c,j δ_j, m
-  double horizon;          // δ_j, m
 };
 
 // Per-particle results of the step's systems.

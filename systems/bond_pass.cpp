@@ -19,6 +19,7 @@
 // (plasticity) → elastic_force → … → (fracture → damage) would run. It runs before kick_end,
 // where elastic_force runs; fracture used to run after kick_end, but nothing in between moves the
 // particles or reads the bonds, so the break decisions are the same.
+#include "bond_gather.hpp"
 #include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
@@ -34,8 +35,8 @@ void pack_bond_ends(WorldState& w) {
   const auto& volume = w.particles.volume;
   parallel_for_each(w.particles.count(), [&](std::size_t i) {
     const SideConstants c = side_constants(md, s, i);
-    s.bond_end[i] = BondEnd{s.dilatation_coupling[i], md.b4[i],           volume[i],         c.beta_theta,
-                            c.yield_extension,        c.plastic_cap,      c.break_extension, c.horizon};
+    s.bond_end[i] = BondEnd{s.dilatation_coupling[i], md.b4[i],      volume[i],     c.horizon,
+                            c.beta_theta,             c.yield_extension, c.plastic_cap, c.break_extension};
   }, 4096);
 }
 
@@ -59,17 +60,28 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
     const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
     double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
     std::uint64_t alive_lanes[kBondLanes] = {}, breaks_lanes[kBondLanes] = {};
-    auto lane = [=, &g_i, &fx, &fy, &fz, &alive_lanes, &breaks_lanes](std::size_t k, int l, std::uint64_t was_alive) {
-      const std::size_t j = bs.neighbor[k];
-      const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
-      const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
+    // The chunk's far ends in lane order (bond_gather.hpp): positions, and the BondEnd fields the
+    // pass reads (the inelastic half only when plasticity or fracture is on).
+    ChunkPositions cp;
+    ChunkEnds ce;
+    auto gather = [&](std::size_t k, int n) {
+      gather_positions(bs.y, bs.x, bs.neighbor + k, n, cp);
+      gather_ends<kPlastic || kFracture>(ends, bs.neighbor + k, n, ce);
+    };
+    auto lane = [=, &g_i, &fx, &fy, &fz, &alive_lanes, &breaks_lanes, &cp, &ce](std::size_t k, int l,
+                                                                                std::uint64_t was_alive) {
+      const double dyx = cp.yx[l] - o.yx, dyy = cp.yy[l] - o.yy, dyz = cp.yz[l] - o.yz;
+      const double dxx = cp.xx[l] - o.xx, dxy = cp.xy[l] - o.xy, dxz = cp.xz[l] - o.xz;
       const double r = reference_length(dxx, dxy, dxz);
       BondGeometry g;
       // A collapsed bond (coincident particles) has no direction: no force, no flow, no break.
       const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (was_alive != 0);
-      const BondEnd& end_j = ends[j];
-      const SideConstants side_j = side_constants(end_j);
-      const SideLengths weighted = side_lengths<kAnisotropic>(g_i, bs.template anisotropy<kAnisotropic>(j), r, dxx, dxy, dxz);
+      constexpr bool kInelastic = kPlastic || kFracture;  // else the inelastic half was not gathered
+      const SideConstants side_j{kInelastic ? ce.beta_theta[l] : 0.0, kInelastic ? ce.yield_extension[l] : 0.0,
+                                 kInelastic ? ce.plastic_cap[l] : 0.0, ce.horizon[l],
+                                 kInelastic ? ce.break_extension[l] : 0.0};
+      const SideLengths weighted =
+          side_lengths<kAnisotropic>(g_i, bs.template anisotropy<kAnisotropic>(bs.neighbor[k]), r, dxx, dxy, dxz);
       double ep_ij = 0.0, ep_ji = 0.0;
       if constexpr (kPlastic) {  // plasticity.cpp. Stored as float; the force and the break test use the
         // rounded value, as the separate systems do when they read it back. Selected in float, then
@@ -88,7 +100,7 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
       const double density = paired_force_density<kAnisotropic, kPlastic>(
           g, force_weight<kAnisotropic>(side_i.horizon, weighted.inverse_ij),
           force_weight<kAnisotropic>(side_j.horizon, weighted.inverse_ji), ep_ij,
-          ep_ji, end_i.coupling, end_i.b4, end_j.coupling, end_j.b4, end_j.volume);
+          ep_ji, end_i.coupling, end_i.b4, ce.coupling[l], ce.b4[l], ce.volume[l]);
       const double c = active ? density : 0.0;
       fx[l] += c * dyx;
       fy[l] += c * dyy;
@@ -110,7 +122,7 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
           if (breaks_lanes[l]) alive_flag[k + static_cast<std::size_t>(l)] = 0;  // rare: a predictable branch
       }
     };
-    for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], alive_flag, lane, finish);
+    for_each_gathered_bond_lane(bs.offsets[i], bs.offsets[i + 1], alive_flag, gather, lane, finish);
     const double v_i = end_i.volume;
     force_p[3 * i] = v_i * sum_lanes(fx);
     force_p[3 * i + 1] = v_i * sum_lanes(fy);

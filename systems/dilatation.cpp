@@ -4,6 +4,7 @@
 // Also P_i = (a4_i − b4_i β_i) θ_i, the dilatational factor of Eq 4 + Eq 8 that the force needs
 // from both ends of a bond, so the force pass gathers one number per neighbour instead of four.
 // Reads:  position, bond_alive.   Writes: dilatation (θ and P).
+#include "bond_gather.hpp"
 #include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "field_registry.hpp"
@@ -22,13 +23,15 @@ void compute_dilatation(const WorldState& w, const std::vector<Vec3>& y_vec, std
       const auto o = bs.origin(i);
       const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
       double sum[kBondLanes] = {};
+      ChunkPositions c;  // the chunk's far ends (bond_gather.hpp)
+      auto gather = [&](std::size_t k, int n) { gather_positions(bs.y, bs.x, bs.neighbor + k, n, c); };
       // Lane-strided so that the bond loop runs as SIMD with a fixed summation order (bond_rules.hpp).
       // ω e Λ = (δ_i/ℓ)(|y_j−y_i| − |ξ|)(y_j−y_i)·ξ/(|y_j−y_i| |ξ|): δ_i moves out of the sum, and one
       // division per bond remains. A collapsed bond has no direction.
-      auto lane = [=, &sum, &g_i](std::size_t k, int l, std::uint64_t is_alive) {
+      auto lane = [=, &sum, &g_i, &c](std::size_t k, int l, std::uint64_t is_alive) {
         const std::size_t j = bs.neighbor[k];
-        const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
-        const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
+        const double dyx = c.yx[l] - o.yx, dyy = c.yy[l] - o.yy, dyz = c.yz[l] - o.yz;
+        const double dxx = c.xx[l] - o.xx, dxy = c.xy[l] - o.xy, dxz = c.xz[l] - o.xz;
         const double r = reference_length(dxx, dxy, dxz);
         const double ell = weighted_length<kAnisotropic>(g_i, r, dxx, dxy, dxz);
         const double dot = dyx * dxx + dyy * dxy + dyz * dxz;
@@ -36,7 +39,7 @@ void compute_dilatation(const WorldState& w, const std::vector<Vec3>& y_vec, std
         const double term = (len - r) * dot * volume[j] / (len * r * ell);
         sum[l] += (is_alive != 0) & (len > 0.0) ? term : 0.0;
       };
-      for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
+      for_each_gathered_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, gather, lane, [](std::size_t, int) {});
       const double th = md.dilatation_scale[i] * md.horizon[i] * sum_lanes(sum);
       theta[i] = th;
       coupling[i] = dilatation_coupling(md, i, th);

@@ -1,0 +1,168 @@
+// Neighbour data of one chunk of bonds, moved into lane order before the chunk's SIMD arithmetic.
+//
+// Why: a bond kernel's lane l reads particle j = neighbor[k + l]'s position, reference position and
+// per-particle constants. Written as plain indexed loads, GCC 12 emulates each gathered double with a
+// scalar load and an insert (hardware gathers are slower still: with them the dilatation pass took
+// 1.9× as long on the development machine), and on the 3e5 bench body those moves were about two
+// thirds of the dilatation pass's instructions. Here each neighbour's three position components come in
+// with one 256-bit load (masked to three doubles, so the last particle reads nothing past its array)
+// and each half of its BondEnd line with one aligned load; a 4 × 4 transpose in registers turns four
+// neighbours' rows into one vector per component. The values are the same doubles either way, so the
+// kernels' results are unchanged to the bit; the scalar path (a CPU without AVX, and the tail of a
+// family) fills the same arrays one by one.
+//
+// Shapes: a chunk is kBondLanes bonds; every array below has one entry per lane. `y` and `x` are 3
+// doubles per particle (x y z), `ends` one BondEnd (64-byte aligned) per particle.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+#if defined(__AVX__)
+#include <immintrin.h>
+#define PERIFX_BOND_GATHER_AVX 1
+#endif
+
+#include "bond_rules.hpp"
+#include "components/particles.hpp"
+
+namespace perifx::systems {
+
+static_assert(kBondLanes % 4 == 0, "chunks are gathered four neighbours at a time");
+
+// y_j − y_i and ξ = x_j − x_i need both positions of the far end.
+struct ChunkPositions {
+  alignas(64) double yx[kBondLanes], yy[kBondLanes], yz[kBondLanes];
+  alignas(64) double xx[kBondLanes], xy[kBondLanes], xz[kBondLanes];
+};
+// The far end's BondEnd, one array per field (field order as in BondEnd).
+struct ChunkEnds {
+  alignas(64) double coupling[kBondLanes], b4[kBondLanes], volume[kBondLanes], horizon[kBondLanes];
+  alignas(64) double beta_theta[kBondLanes], yield_extension[kBondLanes], plastic_cap[kBondLanes],
+      break_extension[kBondLanes];
+};
+
+#ifdef PERIFX_BOND_GATHER_AVX
+namespace detail {
+// Rows r0..r3 (4 doubles each, the 4th possibly unused) to columns c0..c3.
+inline void transpose4(__m256d r0, __m256d r1, __m256d r2, __m256d r3, __m256d& c0, __m256d& c1, __m256d& c2,
+                       __m256d& c3) {
+  const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
+  const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
+  c0 = _mm256_permute2f128_pd(t0, t2, 0x20);
+  c1 = _mm256_permute2f128_pd(t1, t3, 0x20);
+  c2 = _mm256_permute2f128_pd(t0, t2, 0x31);
+  c3 = _mm256_permute2f128_pd(t1, t3, 0x31);
+}
+inline void transpose3(__m256d r0, __m256d r1, __m256d r2, __m256d r3, __m256d& c0, __m256d& c1, __m256d& c2) {
+  const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
+  const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
+  c0 = _mm256_permute2f128_pd(t0, t2, 0x20);
+  c1 = _mm256_permute2f128_pd(t1, t3, 0x20);
+  c2 = _mm256_permute2f128_pd(t0, t2, 0x31);
+}
+// Three doubles at p (x y z of a particle) in lanes 0–2; lane 3 is zero and nothing past p[2] is read
+// (a masked load does not touch, or fault on, the masked-off double).
+inline __m256d load_xyz(const double* p) {
+#if defined(__AVX512VL__)
+  return _mm256_maskz_loadu_pd(0x7, p);
+#else
+  return _mm256_maskload_pd(p, _mm256_set_epi64x(0, -1, -1, -1));
+#endif
+}
+}  // namespace detail
+#endif
+
+// Positions of the far ends of bonds k..k+n−1 (neighbor ids nb[0..n)); n ≤ kBondLanes.
+[[gnu::always_inline]] inline void gather_positions(const double* y, const double* x, const std::uint32_t* nb, int n, ChunkPositions& c) {
+#ifdef PERIFX_BOND_GATHER_AVX
+  if (n == kBondLanes) {
+    for (int g = 0; g < kBondLanes; g += 4) {
+      const std::size_t j0 = 3 * std::size_t(nb[g]), j1 = 3 * std::size_t(nb[g + 1]), j2 = 3 * std::size_t(nb[g + 2]),
+                        j3 = 3 * std::size_t(nb[g + 3]);
+      __m256d a, b, d;
+      detail::transpose3(detail::load_xyz(y + j0), detail::load_xyz(y + j1), detail::load_xyz(y + j2),
+                         detail::load_xyz(y + j3), a, b, d);
+      _mm256_store_pd(c.yx + g, a);
+      _mm256_store_pd(c.yy + g, b);
+      _mm256_store_pd(c.yz + g, d);
+      detail::transpose3(detail::load_xyz(x + j0), detail::load_xyz(x + j1), detail::load_xyz(x + j2),
+                         detail::load_xyz(x + j3), a, b, d);
+      _mm256_store_pd(c.xx + g, a);
+      _mm256_store_pd(c.xy + g, b);
+      _mm256_store_pd(c.xz + g, d);
+    }
+    return;
+  }
+#endif
+  for (int l = 0; l < n; ++l) {
+    const std::size_t j = 3 * std::size_t(nb[l]);
+    c.yx[l] = y[j], c.yy[l] = y[j + 1], c.yz[l] = y[j + 2];
+    c.xx[l] = x[j], c.xy[l] = x[j + 1], c.xz[l] = x[j + 2];
+  }
+}
+
+// The far ends' BondEnd lines of bonds k..k+n−1: the elastic half (coupling, b4, volume, horizon)
+// always, the inelastic half (β θ, yield and break extensions, plastic cap) when kInelastic.
+template <bool kInelastic>
+[[gnu::always_inline]] inline void gather_ends(const BondEnd* ends, const std::uint32_t* nb, int n, ChunkEnds& c) {
+  static_assert(offsetof(BondEnd, horizon) == 3 * sizeof(double) && offsetof(BondEnd, break_extension) == 7 * sizeof(double),
+                "the two halves of BondEnd are loaded as four doubles each");
+#ifdef PERIFX_BOND_GATHER_AVX
+  if (n == kBondLanes) {
+    for (int g = 0; g < kBondLanes; g += 4) {
+      const double* e0 = &ends[nb[g]].coupling;
+      const double* e1 = &ends[nb[g + 1]].coupling;
+      const double* e2 = &ends[nb[g + 2]].coupling;
+      const double* e3 = &ends[nb[g + 3]].coupling;
+      __m256d a, b, d, f;
+      detail::transpose4(_mm256_load_pd(e0), _mm256_load_pd(e1), _mm256_load_pd(e2), _mm256_load_pd(e3), a, b, d, f);
+      _mm256_store_pd(c.coupling + g, a);
+      _mm256_store_pd(c.b4 + g, b);
+      _mm256_store_pd(c.volume + g, d);
+      _mm256_store_pd(c.horizon + g, f);
+      if constexpr (kInelastic) {
+        detail::transpose4(_mm256_load_pd(e0 + 4), _mm256_load_pd(e1 + 4), _mm256_load_pd(e2 + 4),
+                           _mm256_load_pd(e3 + 4), a, b, d, f);
+        _mm256_store_pd(c.beta_theta + g, a);
+        _mm256_store_pd(c.yield_extension + g, b);
+        _mm256_store_pd(c.plastic_cap + g, d);
+        _mm256_store_pd(c.break_extension + g, f);
+      }
+    }
+    return;
+  }
+#endif
+  for (int l = 0; l < n; ++l) {
+    const BondEnd& e = ends[nb[l]];
+    c.coupling[l] = e.coupling, c.b4[l] = e.b4, c.volume[l] = e.volume, c.horizon[l] = e.horizon;
+    if constexpr (kInelastic) {
+      c.beta_theta[l] = e.beta_theta, c.yield_extension[l] = e.yield_extension, c.plastic_cap[l] = e.plastic_cap;
+      c.break_extension[l] = e.break_extension;
+    }
+  }
+}
+
+// for_each_bond_lane (bond_rules.hpp) with a gather step: gather(k, n) fills the kernel's chunk
+// arrays for bonds k..k+n−1 before lane(k + l, l, alive) runs for each of them.
+template <class Gather, class Lane, class Finish>
+inline void for_each_gathered_bond_lane(std::size_t begin, std::size_t end, const std::uint8_t* alive, Gather gather,
+                                        Lane lane, Finish finish) {
+  std::size_t k = begin;
+  for (; k + kBondLanes <= end; k += kBondLanes) {
+    gather(k, kBondLanes);
+    std::uint64_t words[(kBondLanes + 7) / 8] = {};
+    std::memcpy(words, alive + k, kBondLanes);
+#pragma omp simd
+    for (int l = 0; l < kBondLanes; ++l)
+      lane(k + static_cast<std::size_t>(l), l, (words[l >> 3] >> (8 * (l & 7))) & 0xffu);
+    finish(k, kBondLanes);
+  }
+  const int tail = static_cast<int>(end - k);
+  if (tail > 0) {
+    gather(k, tail);
+    for (int l = 0; l < tail; ++l) lane(k + static_cast<std::size_t>(l), l, std::uint64_t{alive[k + l]});
+    finish(k, tail);
+  }
+}
+
+}  // namespace perifx::systems

@@ -1,0 +1,82 @@
+// The neighbour gathers of the bond kernels (systems/bond_gather.hpp) must hand each lane exactly the
+// doubles a plain indexed load would, in every lane of a full chunk and of a family's tail, and must
+// not read past the end of the position arrays (the last particle's three doubles end its array).
+#include <doctest/doctest.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "systems/bond_gather.hpp"
+
+using namespace perifx;
+using namespace perifx::systems;
+
+namespace {
+
+// `count` doubles ending exactly at a page that may not be read: a load past the end faults.
+struct GuardedArray {
+  void* base = nullptr;
+  std::size_t bytes = 0;
+  double* data = nullptr;
+  explicit GuardedArray(std::size_t count) {
+    const std::size_t page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+    const std::size_t used = (count * sizeof(double) + page - 1) / page * page;
+    bytes = used + page;
+    base = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    REQUIRE(base != MAP_FAILED);
+    REQUIRE(mprotect(static_cast<char*>(base) + used, page, PROT_NONE) == 0);
+    data = reinterpret_cast<double*>(static_cast<char*>(base) + used) - count;
+  }
+  ~GuardedArray() { munmap(base, bytes); }
+};
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+}  // namespace
+
+TEST_CASE("bond gathers hand every lane the far end's own doubles, and read nothing past the arrays") {
+  constexpr std::size_t n = 37;
+  GuardedArray y(3 * n), x(3 * n);
+  std::vector<BondEnd> ends(n);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> value(-1.0, 1.0);
+  for (std::size_t c = 0; c < 3 * n; ++c) y.data[c] = value(rng), x.data[c] = value(rng);
+  for (auto& e : ends)
+    e = BondEnd{value(rng), value(rng), value(rng), value(rng), value(rng), value(rng), value(rng), value(rng)};
+  // A family: the last particle (whose doubles end the guarded arrays) in several lanes, the first,
+  // repeats, and a tail of 5.
+  const std::vector<std::uint32_t> nb = {36, 0, 5, 36, 12, 35, 1, 36, 36, 17, 3, 29, 36, 8, 36, 2, 36, 20, 36, 36, 0};
+  for (std::size_t k = 0; k < nb.size(); k += kBondLanes) {
+    const int lanes = static_cast<int>(std::min<std::size_t>(kBondLanes, nb.size() - k));
+    CAPTURE(k);
+    ChunkPositions p;
+    gather_positions(y.data, x.data, nb.data() + k, lanes, p);
+    ChunkEnds e;
+    gather_ends<true>(ends.data(), nb.data() + k, lanes, e);
+    ChunkEnds elastic;
+    gather_ends<false>(ends.data(), nb.data() + k, lanes, elastic);
+    for (int l = 0; l < lanes; ++l) {
+      CAPTURE(l);
+      const std::size_t j = nb[k + l];
+      CHECK(same_bits(p.yx[l], y.data[3 * j]));
+      CHECK(same_bits(p.yy[l], y.data[3 * j + 1]));
+      CHECK(same_bits(p.yz[l], y.data[3 * j + 2]));
+      CHECK(same_bits(p.xx[l], x.data[3 * j]));
+      CHECK(same_bits(p.xy[l], x.data[3 * j + 1]));
+      CHECK(same_bits(p.xz[l], x.data[3 * j + 2]));
+      for (const ChunkEnds* c : {&e, &elastic}) {
+        CHECK(same_bits(c->coupling[l], ends[j].coupling));
+        CHECK(same_bits(c->b4[l], ends[j].b4));
+        CHECK(same_bits(c->volume[l], ends[j].volume));
+        CHECK(same_bits(c->horizon[l], ends[j].horizon));
+      }
+      CHECK(same_bits(e.beta_theta[l], ends[j].beta_theta));
+      CHECK(same_bits(e.yield_extension[l], ends[j].yield_extension));
+      CHECK(same_bits(e.plastic_cap[l], ends[j].plastic_cap));
+      CHECK(same_bits(e.break_extension[l], ends[j].break_extension));
+    }
+  }
+}
