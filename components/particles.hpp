@@ -80,6 +80,15 @@ struct alignas(64) BondEnd {
   double break_extension;  // (1 + α_j φ_j) s_c,j δ_j, m
 };
 
+// Which collider held a particle in this step, and along which normal (systems/colliders.cpp), for
+// kick_end's support constraint (systems/integration.cpp). 16 bytes; float: the normal only decides a
+// direction, to ~1e-7.
+struct ColliderContact {
+  static constexpr std::int32_t kNone = -1;
+  float normal[3] = {0.0f, 0.0f, 0.0f};  // unit, out of the collider
+  std::int32_t collider = kNone;          // index into StepSettings::colliders, or kNone
+};
+
 // Per-particle results of the step's systems.
 struct ParticleState {
   std::vector<double> dilatation;           // θ_i (Eq 6), written by the dilatation system
@@ -96,6 +105,9 @@ struct ParticleState {
   // computed or the family does not fit. The colliders place each boundary-face corner X at
   // y + F·(X − x) (surface_frames.cpp). Float: it only places contact geometry, to ~1e-7 of a tet size.
   std::vector<Eigen::Matrix3f> surface_frame;
+  // Per particle (only in worlds with colliders): written by the colliders every step, read by kick_end
+  // in the same step; not saved in checkpoints (nothing reads it across a step boundary).
+  std::vector<ColliderContact> collider_contact;
   // Health of the step: the lowest particle index whose position or velocity kick_end found non-finite
   // or whose speed exceeds StepSettings::max_speed, or kAllStable. Written by kick_end with the
   // velocity (part of the velocity component); World::step reads it after every step.

@@ -164,6 +164,7 @@ void for_each_array(W& w, F&& f) {
   f(K::particle, "state.broken_bonds", s.broken_bonds);
   f(K::particle, "state.bond_end", s.bond_end);
   f(K::particle, "state.surface_frame", s.surface_frame);
+  f(K::particle, "state.collider_contact", s.collider_contact);
   auto& b = w.bonds;
   f(K::particle, "bonds.offsets", b.offsets);
   f(K::particle, "bonds.initial_count", b.initial_count);

@@ -23,7 +23,9 @@
 // holds the particle there. Taken out at once, it shattered the fig15 preview's glass plate (2 % of
 // its bonds left against 90 % in the full scene, the 5 m/s ball rebounding at 6.4 m/s): each crack at
 // the ground pushed a tet up by up to half a cell in one step, into the fragments above it.
-// Reads: time, flags, surface_frames.   Writes: position, velocity.
+// Each particle's holding collider and normal of this step go to ParticleState::collider_contact, for
+// kick_end's support constraint (integration.cpp).
+// Reads: time, flags, surface_frames.   Writes: position, velocity, collider_contact.
 #include <cmath>
 
 #include "collider_shapes.hpp"
@@ -50,7 +52,8 @@ constexpr double kDepenetrationSpeed = 0.5;
 }  // namespace
 
 SystemDecl collider_system(WorldState& w) {
-  return {"colliders", {Component::time, Component::flags, Component::surface_frames}, {Component::position, Component::velocity}, [&w] {
+  return {"colliders", {Component::time, Component::flags, Component::surface_frames},
+          {Component::position, Component::velocity, Component::collider_contact}, [&w] {
             const auto& colliders = w.settings.colliders;
             if (colliders.empty()) return;
             const double t = w.clock.time + w.clock.dt;
@@ -64,7 +67,9 @@ SystemDecl collider_system(WorldState& w) {
             auto& p = w.particles;
             const SurfacePatches& sf = w.surface;
             const auto& frames = w.state.surface_frame;
+            auto& held = w.state.collider_contact;
             parallel_for_each(p.count(), [&](std::size_t i) {
+              held[i] = ColliderContact{};
               if (p.flags[i] & kPrescribed) return;
               Vec3& y = p.position[i];
               Vec3& v = p.velocity[i];
@@ -119,6 +124,9 @@ SystemDecl collider_system(WorldState& w) {
                 else y += push * deepest.normal;
                 const Vec3 surface_velocity = c.velocity + c.angular_velocity.cross(y - pc.center);
                 respond(v, surface_velocity, deepest.normal, c);
+                held[i] = ColliderContact{{static_cast<float>(deepest.normal.x()), static_cast<float>(deepest.normal.y()),
+                                           static_cast<float>(deepest.normal.z())},
+                                          static_cast<std::int32_t>(k)};
               }
             }, 2048);
           }};

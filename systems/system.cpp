@@ -22,6 +22,7 @@ const char* component_name(Component c) {
     case Component::bond_end: return "bond_end";
     case Component::contact_list: return "contact_list";
     case Component::surface_frames: return "surface_frames";
+    case Component::collider_contact: return "collider_contact";
     case Component::count_: break;
   }
   return "?";

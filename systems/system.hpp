@@ -30,6 +30,7 @@ enum class Component : std::uint8_t {
   bond_end,      // ParticleState::bond_end, the packed far-end copy the bond pass refreshes and reads
   contact_list,  // ContactState's grid and Verlet pair list (systems/contact.cpp)
   surface_frames,  // ParticleState::surface_frame, which places the boundary faces the colliders meet
+  collider_contact,  // ParticleState::collider_contact, the collider that held each particle this step
   count_  // number of components
 };
 const char* component_name(Component c);

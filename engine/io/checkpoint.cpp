@@ -28,9 +28,11 @@ constexpr std::uint32_t kVersion = 10;  // 2: embedded.held_deformation, embedde
                                        // 10: no projectiles.particle_force, .torque, .touched
 
 // Not saved: worker-slot scratch (sized by the thread count, so a resume on another thread count keeps
-// its own) and the projectiles' per-block contact lists (refilled by every step before any reads).
+// its own), the projectiles' per-block contact lists and the collider contacts (both refilled by every
+// step before any reads).
 bool not_saved(std::string_view name) {
-  return name == "contact.pairs.bonded_stamp" || name == "projectiles.block_contacts";
+  return name == "contact.pairs.bonded_stamp" || name == "projectiles.block_contacts" ||
+         name == "state.collider_contact";  // written by the colliders before kick_end reads it, every step
 }
 
 // The scalars of a WorldState that no array holds, in one fixed order for writing and reading.
