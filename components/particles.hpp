@@ -106,7 +106,7 @@ struct ParticleState {
   // y + F·(X − x) (surface_frames.cpp). Float: it only places contact geometry, to ~1e-7 of a tet size.
   std::vector<Eigen::Matrix3f> surface_frame;
   // Per particle (only in worlds with colliders): written by the colliders every step, read by kick_end
-  // in the same step; not saved in checkpoints (nothing reads it across a step boundary).
+  // in the same step.
   std::vector<ColliderContact> collider_contact;
   // Health of the step: the lowest particle index whose position or velocity kick_end found non-finite
   // or whose speed exceeds StepSettings::max_speed, or kAllStable. Written by kick_end with the

@@ -11,6 +11,7 @@
 // kernels' results are unchanged to the bit; the scalar path (a CPU without AVX, and the tail of a
 // family) fills the same arrays one by one.
 //
+// The kernels call these from for_each_gathered_bond_lane (bond_rules.hpp).
 // Shapes: a chunk is kBondLanes bonds; every array below has one entry per lane. `y` and `x` are 3
 // doubles per particle (x y z), `ends` one BondEnd (64-byte aligned) per particle.
 #pragma once
@@ -139,29 +140,6 @@ template <bool kInelastic>
       c.beta_theta[l] = e.beta_theta, c.yield_extension[l] = e.yield_extension, c.plastic_cap[l] = e.plastic_cap;
       c.break_extension[l] = e.break_extension;
     }
-  }
-}
-
-// for_each_bond_lane (bond_rules.hpp) with a gather step: gather(k, n) fills the kernel's chunk
-// arrays for bonds k..k+n−1 before lane(k + l, l, alive) runs for each of them.
-template <class Gather, class Lane, class Finish>
-inline void for_each_gathered_bond_lane(std::size_t begin, std::size_t end, const std::uint8_t* alive, Gather gather,
-                                        Lane lane, Finish finish) {
-  std::size_t k = begin;
-  for (; k + kBondLanes <= end; k += kBondLanes) {
-    gather(k, kBondLanes);
-    std::uint64_t words[(kBondLanes + 7) / 8] = {};
-    std::memcpy(words, alive + k, kBondLanes);
-#pragma omp simd
-    for (int l = 0; l < kBondLanes; ++l)
-      lane(k + static_cast<std::size_t>(l), l, (words[l >> 3] >> (8 * (l & 7))) & 0xffu);
-    finish(k, kBondLanes);
-  }
-  const int tail = static_cast<int>(end - k);
-  if (tail > 0) {
-    gather(k, tail);
-    for (int l = 0; l < tail; ++l) lane(k + static_cast<std::size_t>(l), l, std::uint64_t{alive[k + l]});
-    finish(k, tail);
   }
 }
 

@@ -236,15 +236,18 @@ inline bool side_breaks(const BondGeometry& g, double r, double inverse_length, 
 //   lane(k, l, alive_k):  the bond's work; alive_k is its alive flag (0 or 1) as a 64-bit integer:
 //                         byte-wide values in the SIMD loop would force 16+ lanes per vector.
 //   finish(k, n):         after the chunk of n bonds starting at k (scalar; e.g. writes the flags).
+//   gather(k, n):         before the chunk (for_each_gathered_bond_lane): moves the chunk's neighbour
+//                         data into the kernel's lane arrays (bond_gather.hpp).
 inline constexpr int kBondLanes = 8;
-template <class Lane, class Finish>
-inline void for_each_bond_lane(std::size_t begin, std::size_t end, const std::uint8_t* alive, Lane lane,
-                               Finish finish) {
+template <class Gather, class Lane, class Finish>
+inline void for_each_gathered_bond_lane(std::size_t begin, std::size_t end, const std::uint8_t* alive, Gather gather,
+                                        Lane lane, Finish finish) {
   static_assert(std::endian::native == std::endian::little, "alive flags are unpacked from a little-endian word");
   // std::size_t indices: with 32-bit ones the compiler must allow for wrap-around and cannot treat
   // k + l as a plain address stream. `lane` is taken by value so its captures are locals.
   std::size_t k = begin;
   for (; k + kBondLanes <= end; k += kBondLanes) {
+    gather(k, kBondLanes);
     std::uint64_t words[(kBondLanes + 7) / 8] = {};
     std::memcpy(words, alive + k, kBondLanes);
 #pragma omp simd
@@ -253,8 +256,16 @@ inline void for_each_bond_lane(std::size_t begin, std::size_t end, const std::ui
     finish(k, kBondLanes);
   }
   const int tail = static_cast<int>(end - k);
-  for (int l = 0; l < tail; ++l) lane(k + static_cast<std::size_t>(l), l, std::uint64_t{alive[k + l]});
-  if (tail > 0) finish(k, tail);
+  if (tail > 0) {
+    gather(k, tail);
+    for (int l = 0; l < tail; ++l) lane(k + static_cast<std::size_t>(l), l, std::uint64_t{alive[k + l]});
+    finish(k, tail);
+  }
+}
+template <class Lane, class Finish>
+inline void for_each_bond_lane(std::size_t begin, std::size_t end, const std::uint8_t* alive, Lane lane,
+                               Finish finish) {
+  for_each_gathered_bond_lane(begin, end, alive, [](std::size_t, int) {}, lane, finish);
 }
 template <class T>
 inline T sum_lanes(const T (&lanes)[kBondLanes]) {

@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'P', 'E', 'R', 'I', 'F', 'X', 'C', 'K'};
-constexpr std::uint32_t kVersion = 10;  // 2: embedded.held_deformation, embedded.held_tracked;
+constexpr std::uint32_t kVersion = 11;  // 2: embedded.held_deformation, embedded.held_tracked;
                                        // 3: contact moved-particle updates (per-particle search positions);
                                        // 4: no per-bond |ξ|, ω, mirror index; e^p as float (issue 16);
                                        // 5: model.anisotropy_metric (GᵀG per particle);
@@ -26,13 +26,15 @@ constexpr std::uint32_t kVersion = 10;  // 2: embedded.held_deformation, embedde
                                        // 8: surface.radius (faces for projectiles)
                                        // 9: state.surface_frame (faces for colliders)
                                        // 10: no projectiles.particle_force, .torque, .touched
+                                       // 11: state.collider_contact
 
 // Not saved: worker-slot scratch (sized by the thread count, so a resume on another thread count keeps
-// its own), the projectiles' per-block contact lists and the collider contacts (both refilled by every
-// step before any reads).
+// its own) and the projectiles' per-block contact lists (refilled by every step before any reads).
+// Per-particle arrays are all saved, even those a step rewrites before reading (state.bond_end,
+// state.collider_contact): a resume on another rank count splits the particle arrays it read, and an
+// array left out kept its old length there.
 bool not_saved(std::string_view name) {
-  return name == "contact.pairs.bonded_stamp" || name == "projectiles.block_contacts" ||
-         name == "state.collider_contact";  // written by the colliders before kick_end reads it, every step
+  return name == "contact.pairs.bonded_stamp" || name == "projectiles.block_contacts";
 }
 
 // The scalars of a WorldState that no array holds, in one fixed order for writing and reading.
