@@ -41,6 +41,15 @@ struct ChunkEnds {
   alignas(64) double beta_theta[kBondLanes], yield_extension[kBondLanes], plastic_cap[kBondLanes],
       break_extension[kBondLanes];
 };
+// Lane l's far-end SideConstants, as side_constants(const BondEnd&) gives them from the line itself.
+// Without kInelastic the inelastic half was not gathered (gather_ends<false>); its fields are 0 then.
+template <bool kInelastic>
+inline SideConstants side_constants(const ChunkEnds& c, int l) {
+  if constexpr (kInelastic)
+    return {c.beta_theta[l], c.yield_extension[l], c.plastic_cap[l], c.horizon[l], c.break_extension[l]};
+  else
+    return {0.0, 0.0, 0.0, c.horizon[l], 0.0};
+}
 
 #ifdef PERIFX_BOND_GATHER_AVX
 namespace detail {

@@ -76,10 +76,7 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
       BondGeometry g;
       // A collapsed bond (coincident particles) has no direction: no force, no flow, no break.
       const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (was_alive != 0);
-      constexpr bool kInelastic = kPlastic || kFracture;  // else the inelastic half was not gathered
-      const SideConstants side_j{kInelastic ? ce.beta_theta[l] : 0.0, kInelastic ? ce.yield_extension[l] : 0.0,
-                                 kInelastic ? ce.plastic_cap[l] : 0.0, ce.horizon[l],
-                                 kInelastic ? ce.break_extension[l] : 0.0};
+      const SideConstants side_j = side_constants<kPlastic || kFracture>(ce, l);
       const SideLengths weighted =
           side_lengths<kAnisotropic>(g_i, bs.template anisotropy<kAnisotropic>(bs.neighbor[k]), r, dxx, dxy, dxz);
       double ep_ij = 0.0, ep_ji = 0.0;
