@@ -2,15 +2,15 @@
 # Distributed runs are bit-identical to one process (issue 17): runs mpi_impact.json (plasticity,
 # fracture with damage-dependent limits, particle contact with friction, a steel ball, an anchor, a
 # velocity condition, gravity and a surface traction) in one process, then under mpirun at 1, 2, 3 and
-# 4 ranks of 1 thread and at 2 ranks of 2 threads, and compares every output file byte for byte:
-# particle frames (vtu, ply), split-mesh surfaces (obj, ply, vtp), tet meshes (vtu), the Blender cache
-# (animation.obj/.pc2), glTF, dust, pieces.csv, mesh.json and projectiles.csv (all but summary.json and
-# checkpoint.bin). It first checks that the reference run yields, breaks into pieces, is struck by
-# the ball and lifted by a rising box collider (which reads the surface frames computed from ghosts), so
-# the comparison covers all four. A run of 3 ranks re-splits its work every 20 steps
-# (rebalance_drift 0). Then a run of 2 ranks stopped at frame 7 is resumed from its checkpoint by 3
-# ranks, and by one process: the same bytes. --bind-to none: Open MPI otherwise pins each rank to one
-# core, and oneTBB would then run 2 threads on it as 1.
+# 4 ranks of 1 thread, at 2 ranks of 2 threads and at 3 ranks over TCP (loopback), and compares every
+# output file byte for byte: particle frames (vtu, ply), split-mesh surfaces (obj, ply, vtp), tet
+# meshes (vtu), the Blender cache (animation.obj/.pc2), glTF, dust, pieces.csv, mesh.json and
+# projectiles.csv (all but summary.json and checkpoint.bin). It first checks that the reference run
+# yields, breaks into pieces, is struck by the ball and lifted by a rising box collider (which reads
+# the surface frames computed from ghosts), so the comparison covers all four. A run of 3 ranks
+# re-splits its work every 20 steps (rebalance_drift 0). Then a run of 2 ranks stopped at frame 7 is
+# resumed from its checkpoint by 3 ranks, and by one process: the same bytes. --bind-to none: Open MPI
+# otherwise pins each rank to one core, and oneTBB would then run 2 threads on it as 1.
 #   usage: mpi_identity.sh PERIFX MPIRUN WORKDIR
 set -euo pipefail
 perifx=$1 mpirun=$2 work=$3
@@ -83,6 +83,13 @@ for spec in 1x1 2x1 3x1 4x1 2x2; do
   "$mpirun" --allow-run-as-root --oversubscribe --bind-to none -np "$ranks" "$perifx" run "$scene" --threads "$threads" --quiet --out "$out"
   compare "$ranks ranks x $threads threads" "$out"
 done
+# Over a network transport: the same 3-rank run with Open MPI's TCP transport on the loopback interface
+# (pml ob1, btl tcp + self: no shared-memory path between the ranks), as ranks on separate machines
+# talk; message sizes, ordering and completion then go through the TCP stack.
+out=$work/ranks3_tcp
+"$mpirun" --allow-run-as-root --oversubscribe --bind-to none --mca pml ob1 --mca btl tcp,self \
+  --mca btl_tcp_if_include lo -np 3 "$perifx" run "$scene" --threads 1 --quiet --out "$out"
+compare "3 ranks x 1 thread over TCP (loopback)" "$out"
 # summary.json's per-rank figures (World::rank_stats): the shares add up to the world, every rank of the
 # struck plate has bond and contact ghosts, and each step moves at least the motion halo (6 doubles per
 # bond ghost) into every rank.
