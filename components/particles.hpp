@@ -80,13 +80,15 @@ struct alignas(64) BondEnd {
   double break_extension;  // (1 + α_j φ_j) s_c,j δ_j, m
 };
 
-// Which collider held a particle in this step, and along which normal (systems/colliders.cpp), for
-// kick_end's support constraint (systems/integration.cpp). 16 bytes; float: the normal only decides a
-// direction, to ~1e-7.
+// Which colliders held a particle in this step, and along which normals (systems/colliders.cpp), for
+// kick_end's support constraint (systems/integration.cpp). Two slots: a particle in a corner (a floor
+// and a wall) is held by both; a third collider at once is not recorded. 32 bytes; float: a normal
+// only decides a direction, to ~1e-7.
 struct ColliderContact {
   static constexpr std::int32_t kNone = -1;
-  float normal[3] = {0.0f, 0.0f, 0.0f};  // unit, out of the collider
-  std::int32_t collider = kNone;          // index into StepSettings::colliders, or kNone
+  static constexpr int kSlots = 2;
+  float normal[kSlots][3] = {};                // unit, out of the collider
+  std::int32_t collider[kSlots] = {kNone, kNone};  // index into StepSettings::colliders, or kNone; slot 0 first
 };
 
 // Per-particle results of the step's systems.

@@ -17,9 +17,11 @@
 //             force is its support load, which the collider takes: kicked in, it left the particle
 //             moving into the collider at (dt/2)|a| (3–4 mm/s at the bottom of a resting 12 cm box)
 //             though it does not move, and every exported frame carried that velocity (motion blur,
-//             velocity-driven effects). The part of the velocity moving into the collider that held the
-//             particle this step (ParticleState::collider_contact, relative to its surface velocity) is
-//             removed; a particle moving away keeps all of its velocity.
+//             velocity-driven effects). The part of the velocity moving into the colliders that held
+//             the particle this step (ParticleState::collider_contact, up to two, each relative to its
+//             surface velocity) is removed: the nearest velocity that moves into neither (held by
+//             two, as in a corner, that can be the motion along the line where both surfaces meet);
+//             a particle moving away keeps all of its velocity.
 //             It also checks every particle's new state (the step's health, part of velocity): a
 //             non-finite position or velocity, or a free particle faster than settings.max_speed, is
 //             recorded as the lowest such index in state.unstable_particle (an atomic minimum: the
@@ -57,6 +59,41 @@ SystemDecl drift_system(WorldState& w) {
             parallel_for_each(p.count(), [&](std::size_t i) { p.position[i] += dt * p.velocity[i]; }, 4096);
           }};
 }
+
+namespace {
+// The velocity nearest to v that moves into none of the colliders that held the particle, each
+// relative to its surface velocity at y: for constraints (v − s_c)·n_c ≥ 0, the first of v, its
+// projection onto one constraint's plane, or onto both planes' common line, that satisfies both (the
+// Euclidean projection onto the two half-spaces). Normals near parallel (the same surface twice)
+// are taken one after the other.
+Vec3 supported_velocity(const Vec3& v, const Vec3& y, const ColliderContact& held, const std::vector<PlacedCollider>& placed) {
+  Vec3 n[ColliderContact::kSlots], surface[ColliderContact::kSlots];
+  int count = 0;
+  for (int c = 0; c < ColliderContact::kSlots && held.collider[c] != ColliderContact::kNone; ++c, ++count) {
+    const PlacedCollider& pc = placed[static_cast<std::size_t>(held.collider[c])];
+    n[c] = Vec3(held.normal[c][0], held.normal[c][1], held.normal[c][2]);
+    surface[c] = pc.spec->velocity + pc.spec->angular_velocity.cross(y - pc.center);
+  }
+  auto gap = [&](const Vec3& u, int c) { return (u - surface[c]).dot(n[c]); };  // < 0: moving into c
+  auto onto = [&](const Vec3& u, int c) {  // onto constraint c's plane when u violates it
+    const double g = gap(u, c);
+    return g < 0.0 ? Vec3(u - g * n[c]) : u;
+  };
+  // Within rounding of a projection (a velocity projected onto one plane reads −1e-17 there).
+  auto allowed = [&](const Vec3& u, int c) { return !(gap(u, c) < -1e-12 * (1.0 + u.norm())); };
+  if (count == 1) return onto(v, 0);
+  if (allowed(v, 0) && allowed(v, 1)) return v;
+  const Vec3 on0 = onto(v, 0), on1 = onto(v, 1);
+  if (!allowed(v, 0) && allowed(on0, 1)) return on0;
+  if (!allowed(v, 1) && allowed(on1, 0)) return on1;
+  const double c01 = n[0].dot(n[1]), det = 1.0 - c01 * c01;
+  if (!(det > 1e-6)) return onto(on0, 1);
+  // v − a n0 − b n1 on both planes: [1 c01; c01 1] (a, b) = (v·n0 − bound0, v·n1 − bound1).
+  const double g0 = gap(v, 0), g1 = gap(v, 1);
+  const double a = (g0 - c01 * g1) / det, b = (g1 - c01 * g0) / det;
+  return v - a * n[0] - b * n[1];
+}
+}  // namespace
 
 SystemDecl kick_end_system(WorldState& w) {
   return {"kick_end",
@@ -100,14 +137,8 @@ SystemDecl kick_end_system(WorldState& w) {
                 for (int ax = 0; ax < 3; ++ax)
                   if (prescribed & (kPrescribedX << ax)) v[ax] = p.velocity[i][ax];
               }
-              if (!placed.empty() && s.collider_contact[i].collider != ColliderContact::kNone) {
-                const ColliderContact& held = s.collider_contact[i];
-                const PlacedCollider& pc = placed[static_cast<std::size_t>(held.collider)];
-                const Vec3 n(held.normal[0], held.normal[1], held.normal[2]);
-                const Vec3 surface_velocity = pc.spec->velocity + pc.spec->angular_velocity.cross(y - pc.center);
-                const double vn = (v - surface_velocity).dot(n);
-                if (vn < 0.0) v -= vn * n;
-              }
+              if (!placed.empty() && s.collider_contact[i].collider[0] != ColliderContact::kNone)
+                v = supported_velocity(v, y, s.collider_contact[i], placed);
               p.velocity[i] = v;
               // NaN fails the comparison too; the position sum is finite unless a coordinate is not.
               if (!(v.squaredNorm() <= max_speed2) || !std::isfinite(y.x() + y.y() + y.z())) report(i);

@@ -77,6 +77,38 @@ TEST_CASE("a body settles on the ground with its mesh surface on the plane, at a
   }
 }
 
+TEST_CASE("a body at rest in a corner of two colliders carries no velocity into either") {
+  // The box of the test above, on a frictionless floor (plane y = 0) and pushed against a wall (plane
+  // x = 0, normal +x) by gravity tilted toward it, settles into the corner. The particles along its
+  // bottom edge at the wall are held by both colliders in every step; kick_end's support constraint
+  // must take their velocity into each of them. Keeping only the last collider that held a particle
+  // (ColliderContact before it kept two) left the floor's half kick in the velocities of that edge.
+  auto sc = test::box_scene(Vec3(0.12, 0.06, 0.12), 0.02, 8e6, 4.8e6);
+  sc.bodies[0].transform.translation = Vec3(0.061, 0.032, 0.0);
+  sc.gravity = Vec3(-4.0, -9.81, 0.0);
+  sc.materials[0].damping = 60.0;
+  scene::Collider floor, wall;
+  wall.normal = Vec3::UnitX();
+  sc.colliders = {floor, wall};
+  {
+    World probe(sc);
+    sc.time.dt = 0.5 * probe.stable_time_step();
+  }
+  World world(sc);
+  world.step(static_cast<int>(0.25 / world.dt()));
+  double kick = 0.0, lowest = kInfinity, nearest_wall = kInfinity;
+  for (const Vec3& v : world.velocities()) kick = std::max(kick, v.norm());
+  for (const Vec3& y : world.positions()) lowest = std::min(lowest, y.y()), nearest_wall = std::min(nearest_wall, y.x());
+  std::size_t both = 0;
+  for (const ColliderContact& c : world.state().state.collider_contact) both += c.collider[0] >= 0 && c.collider[1] >= 0;
+  MESSAGE("largest velocity " << kick << " m/s; " << both << " particles held by both colliders; lowest centre "
+                              << lowest << " m, nearest to the wall " << nearest_wall << " m");
+  CHECK(both > 0);  // the corner is exercised
+  CHECK(lowest > 0.0);
+  CHECK(nearest_wall > 0.0);
+  CHECK(kick < 1e-3);
+}
+
 TEST_CASE("a turned body is met at its turned faces: the push is the depth of its lowest face") {
   // A 6 × 4 × 4 cm box turned by 90° about z (its reference −x face now faces down) and lowered so
   // that face is 1 mm below the ground plane. One collider pass must lift exactly the particles with a
