@@ -62,6 +62,23 @@ std::vector<Domain> split_by_work(const std::vector<std::uint32_t>& work, int ra
   return split(work.size(), ranks, [&](std::size_t i) { return before[i]; });
 }
 
+std::vector<std::uint32_t> current_work(const WorldState& w, std::uint32_t first, std::uint32_t count) {
+  const auto& b = w.bonds;
+  const auto& pr = w.contact.pairs;
+  const bool contact = w.contact.enabled && pr.valid;
+  const auto& tracked = w.embedded.held_tracked;
+  std::vector<std::uint32_t> work(count);
+  for (std::uint32_t m = 0; m < count; ++m) {
+    const std::uint32_t i = first + m;
+    std::uint32_t alive = 0;
+    for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) alive += b.alive[k] != 0;
+    const std::uint32_t held = !tracked.empty() && tracked[i] ? alive / kHeldRotationDivisor : 0u;
+    work[m] = alive + static_cast<std::uint32_t>(kParticleWork) + held +
+              (contact ? pr.offsets[i + 1] - pr.offsets[i] : 0u);
+  }
+  return work;
+}
+
 std::vector<std::vector<std::uint32_t>> bond_ghosts(const WorldState& w, const std::vector<Domain>& domains) {
   const auto& b = w.bonds;
   std::vector<std::vector<std::uint32_t>> ghosts(domains.size());

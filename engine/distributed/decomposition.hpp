@@ -30,6 +30,11 @@ namespace perifx::distributed {
 // measured about 150 bonds per particle at 1.5e8 bond-updates/s and a few ns of per-particle work
 // besides, so its weight is small but keeps bond-less particles from piling onto one rank.
 inline constexpr std::uint64_t kParticleWork = 8;
+// A particle whose held rotation is stepped (systems/mesh_rotations.cpp: tracked, i.e. with a broken
+// bond, in a world with an embedded mesh) costs about 1/kHeldRotationDivisor of its alive bonds more:
+// a fitting family refits every 8th step at two outer products per alive bond; BM_MeshRotations with
+// every particle tracked takes 0.19 of an elastic step (bench/README.md, "Embedded-mesh costs").
+inline constexpr std::uint32_t kHeldRotationDivisor = 5;
 // Bytes each ghost receives per step: position and velocity (2 × 24), θ (8), break limit (8).
 inline constexpr std::uint64_t kGhostBytesPerStep = 64;
 
@@ -46,9 +51,13 @@ struct Domain {
 
 // Contiguous ranges of equal work; ranks ≥ 1 and ≤ particles (throws std::invalid_argument otherwise).
 std::vector<Domain> split_by_work(const WorldState& w, int ranks);
-// The same with the work of each particle given (a distributed run's re-balance: its alive bonds, its
-// contact candidates and kParticleWork); Domain::work is then that work, Domain::bonds is left 0.
+// The same with the work of each particle given (a distributed run's re-balance: current_work);
+// Domain::work is then that work, Domain::bonds is left 0.
 std::vector<Domain> split_by_work(const std::vector<std::uint32_t>& work, int ranks);
+// The current work of particles [first, first + count) of w in bond units, for a re-balance: alive
+// bonds, contact candidates (when the pair list is valid), kParticleWork, and alive/kHeldRotationDivisor
+// more for a particle whose held rotation is stepped.
+std::vector<std::uint32_t> current_work(const WorldState& w, std::uint32_t first, std::uint32_t count);
 // Every domain's bond ghosts (far ends of its owned bonds outside its range), ascending: the same
 // lists on every rank, from the full world.
 std::vector<std::vector<std::uint32_t>> bond_ghosts(const WorldState& w, const std::vector<Domain>& domains);

@@ -186,20 +186,9 @@ struct Runtime::Impl {
     replayed_step = now;
   }
 
-  // This rank's owned particles' work now: alive bonds, contact candidates and kParticleWork each.
+  // This rank's owned particles' work now (decomposition.hpp current_work).
   std::vector<std::uint32_t> owned_work() const {
-    const WorldState& w = *local;
-    const auto& b = w.bonds;
-    const auto& pr = w.contact.pairs;
-    const bool contact = w.contact.enabled && pr.valid;
-    std::vector<std::uint32_t> work(layout.owned_count);
-    for (std::uint32_t m = 0; m < layout.owned_count; ++m) {
-      const std::uint32_t i = layout.owned_begin + m;
-      std::uint32_t alive = 0;
-      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) alive += b.alive[k] != 0;
-      work[m] = alive + static_cast<std::uint32_t>(kParticleWork) + (contact ? pr.offsets[i + 1] - pr.offsets[i] : 0u);
-    }
-    return work;
+    return current_work(*local, layout.owned_begin, layout.owned_count);
   }
 
   // The re-balance check (Runtime::step). True when `rebalanced` holds a new split. Collective.

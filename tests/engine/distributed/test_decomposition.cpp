@@ -8,6 +8,7 @@
 
 #include "distributed/decomposition.hpp"
 #include "support.hpp"
+#include "systems/systems.hpp"
 
 using namespace perifx;
 
@@ -114,4 +115,36 @@ TEST_CASE("decomposition: the public plan matches the internal one") {
     CHECK(plan[r].ghosts == internal[r].ghosts.size());
     CHECK(plan[r].halo_bytes_per_step == internal[r].halo_bytes_per_step);
   }
+}
+
+TEST_CASE("decomposition: a re-balance weighs the held rotations of damaged particles") {
+  // A box with an embedded mesh (its held rotations are stepped for particles with a broken bond):
+  // every other bond of the first half of the particles broken. current_work gives those particles
+  // their alive bonds plus alive/kHeldRotationDivisor, so an equal-work split of two ranks gives the
+  // damaged rank fewer particles than it would if held rotations cost nothing.
+  auto sc = test::box_scene(Vec3(0.08, 0.04, 0.04), 0.01, 3e6, 2e6);
+  sc.output.obj = true;
+  World world(sc);
+  WorldState& w = world.state_mutable();
+  const std::uint32_t n = static_cast<std::uint32_t>(w.particles.count());
+  for (std::uint32_t i = 0; i < n / 2; ++i)
+    for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; k += 2) w.bonds.alive[k] = 0;
+  systems::init_held_rotations(w);
+  REQUIRE(w.embedded.held_tracked.size() == n);
+  const auto work = distributed::current_work(w, 0, n);
+  std::uint32_t tracked = 0;
+  for (std::uint32_t i = 0; i < n; ++i) {
+    std::uint32_t alive = 0;
+    for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) alive += w.bonds.alive[k];
+    const std::uint32_t base = alive + std::uint32_t(distributed::kParticleWork);  // contact is off here
+    CHECK(work[i] == base + (w.embedded.held_tracked[i] ? alive / distributed::kHeldRotationDivisor : 0u));
+    tracked += w.embedded.held_tracked[i];
+  }
+  CHECK(tracked == n / 2);  // the particles with a broken bond
+  const auto weighted = distributed::split_by_work(work, 2);
+  std::fill(w.embedded.held_tracked.begin(), w.embedded.held_tracked.end(), std::uint8_t{0});
+  const auto unweighted = distributed::split_by_work(distributed::current_work(w, 0, n), 2);
+  MESSAGE("rank 0 owns " << weighted[0].last << " of " << n << " particles (" << unweighted[0].last
+                         << " without the held rotations' cost)");
+  CHECK(weighted[0].last < unweighted[0].last);
 }
