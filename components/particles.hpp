@@ -49,6 +49,12 @@ struct ParticleModel {
   std::vector<double> horizon;          // δ, m
   // Per particle when some material has G ≠ I (WorldState::any_anisotropic), else empty.
   std::vector<AnisotropyMetric> anisotropy_metric;
+  // Per particle when some material has G ≠ I, else empty: 1 when the particle's body holds an
+  // anisotropic particle (or is joined by a bond to a body that does). Only those rows run the bond
+  // kernels' anisotropic form (bond_rules.hpp, dispatch_row); a body of an isotropic material runs
+  // the isotropic one, in any scene. Per body, so both ends of every bond use the same form and
+  // compute the same bits.
+  std::vector<std::uint8_t> anisotropic_family;
   std::vector<double> dilatation_scale; // θ_i = dilatation_scale_i · Σ ω e Λ V  (paper: 9/(4πδ⁴))
   std::vector<double> a4;               // 4a, Pa/m⁴ (paper: 4·9κ/(8πδ⁴))
   std::vector<double> b4;               // 4b, Pa/m⁵ (paper: 4·15μ/(2πδ⁵))

@@ -144,6 +144,7 @@ void for_each_array(W& w, F&& f) {
   auto& m = w.model;
   f(K::particle, "model.horizon", m.horizon);
   f(K::particle, "model.anisotropy_metric", m.anisotropy_metric);
+  f(K::particle, "model.anisotropic_family", m.anisotropic_family);
   f(K::particle, "model.dilatation_scale", m.dilatation_scale);
   f(K::particle, "model.a4", m.a4);
   f(K::particle, "model.b4", m.b4);

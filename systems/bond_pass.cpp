@@ -40,7 +40,7 @@ void pack_bond_ends(WorldState& w) {
   }, 4096);
 }
 
-template <bool kAnisotropic, bool kPlastic, bool kFracture, bool kScaled>
+template <bool kAnisotropicWorld, bool kPlastic, bool kFracture, bool kScaled>
 void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>& force) {
   pack_bond_ends(w);
   // Raw pointers, captured by value and copied into the task's locals (BondStreams in bond_rules.hpp
@@ -51,80 +51,84 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
   double* const damage_p = w.state.damage.data();
   std::uint32_t* const broken_p = w.state.broken_bonds.data();
   double* const force_p = force.data()->data();
-  parallel_for_each(w.particles.count(), [=](std::size_t i) {
-    const auto bs = bs_p;
-    const BondEnd* const ends = ends_p;
-    const auto o = bs.origin(i);
-    const BondEnd end_i = ends[i];
-    const SideConstants side_i = side_constants(end_i);
-    const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
-    double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
-    std::uint64_t alive_lanes[kBondLanes] = {}, breaks_lanes[kBondLanes] = {};
-    // The chunk's far ends in lane order (bond_gather.hpp): positions, and the BondEnd fields the
-    // pass reads (the inelastic half only when plasticity or fracture is on).
-    ChunkPositions cp;
-    ChunkEnds ce;
-    auto gather = [&](std::size_t k, int n) {
-      gather_positions(bs.y, bs.x, bs.neighbor + k, n, cp);
-      gather_ends<kPlastic || kFracture>(ends, bs.neighbor + k, n, ce);
-    };
-    auto lane = [=, &g_i, &fx, &fy, &fz, &alive_lanes, &breaks_lanes, &cp, &ce](std::size_t k, int l,
-                                                                                std::uint64_t was_alive) {
-      const double dyx = cp.yx[l] - o.yx, dyy = cp.yy[l] - o.yy, dyz = cp.yz[l] - o.yz;
-      const double dxx = cp.xx[l] - o.xx, dxy = cp.xy[l] - o.xy, dxz = cp.xz[l] - o.xz;
-      const double r = reference_length(dxx, dxy, dxz);
-      BondGeometry g;
-      // A collapsed bond (coincident particles) has no direction: no force, no flow, no break.
-      const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (was_alive != 0);
-      const SideConstants side_j = side_constants<kPlastic || kFracture>(ce, l);
-      const SideLengths weighted =
-          side_lengths<kAnisotropic>(g_i, bs.template anisotropy<kAnisotropic>(bs.neighbor[k]), r, dxx, dxy, dxz);
-      double ep_ij = 0.0, ep_ji = 0.0;
-      if constexpr (kPlastic) {  // plasticity.cpp. Stored as float; the force and the break test use the
-        // rounded value, as the separate systems do when they read it back. Selected in float, then
-        // widened once (a select between a float and a double kept GCC 12 from vectorizing the loop).
-        const float old_ij = bs.plastic[k], old_ji = bs.plastic_mirror[k];
-        const float new_ij = static_cast<float>(side_plastic_extension(g, r, weighted.ij, old_ij, side_i));
-        const float new_ji = static_cast<float>(side_plastic_extension(g, r, weighted.ji, old_ji, side_j));
-        const float kept_ij = active ? new_ij : old_ij, kept_ji = active ? new_ji : old_ji;
-        bs.plastic[k] = kept_ij;
-        bs.plastic_mirror[k] = kept_ji;
-        ep_ij = kept_ij;
-        ep_ji = kept_ji;
-      }
-      // elastic_force.cpp. Computed for every lane, then selected: a load inside the condition would
-      // be a masked gather.
-      const double density = paired_force_density<kAnisotropic, kPlastic>(
-          g, force_weight<kAnisotropic>(side_i.horizon, weighted.inverse_ij),
-          force_weight<kAnisotropic>(side_j.horizon, weighted.inverse_ji), ep_ij,
-          ep_ji, end_i.coupling, end_i.b4, ce.coupling[l], ce.b4[l], ce.volume[l]);
-      const double c = active ? density : 0.0;
-      fx[l] += c * dyx;
-      fy[l] += c * dyy;
-      fz[l] += c * dyz;
-      std::uint64_t breaks = 0;
-      if constexpr (kFracture) {  // fracture.cpp
-        const double scale = kScaled ? double(bs.break_scale[k]) : 1.0;
-        breaks = static_cast<std::uint64_t>(active & (g.extension > 0.0) &
-                                            (side_breaks<kAnisotropic>(g, r, weighted.inverse_ij, ep_ij, side_i, scale) |
-                                             side_breaks<kAnisotropic>(g, r, weighted.inverse_ji, ep_ji, side_j, scale)));
-      }
-      breaks_lanes[l] = breaks;
-      alive_lanes[l] += was_alive & ~breaks;  // damage.cpp (a collapsed bond stays alive)
-    };
-    std::uint8_t* const alive_flag = bs.alive;
-    auto finish = [&breaks_lanes, alive_flag](std::size_t k, int n) {
-      if constexpr (kFracture) {
-        for (int l = 0; l < n; ++l)
-          if (breaks_lanes[l]) alive_flag[k + static_cast<std::size_t>(l)] = 0;  // rare: a predictable branch
-      }
-    };
-    for_each_gathered_bond_lane(bs.offsets[i], bs.offsets[i + 1], alive_flag, gather, lane, finish);
-    const double v_i = end_i.volume;
-    force_p[3 * i] = v_i * sum_lanes(fx);
-    force_p[3 * i + 1] = v_i * sum_lanes(fy);
-    force_p[3 * i + 2] = v_i * sum_lanes(fz);
-    store_damage(damage_p[i], broken_p[i], initial_count_p[i], static_cast<std::uint32_t>(sum_lanes(alive_lanes)));
+  const auto& anisotropic_family = w.model.anisotropic_family;
+  parallel_for_each(w.particles.count(), [=, &anisotropic_family](std::size_t i) {
+    dispatch_row<kAnisotropicWorld>(anisotropic_family, i, [=](auto row_form) {
+      constexpr bool kAnisotropic = decltype(row_form)::value;
+      const auto bs = bs_p;
+      const BondEnd* const ends = ends_p;
+      const auto o = bs.origin(i);
+      const BondEnd end_i = ends[i];
+      const SideConstants side_i = side_constants(end_i);
+      const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
+      double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
+      std::uint64_t alive_lanes[kBondLanes] = {}, breaks_lanes[kBondLanes] = {};
+      // The chunk's far ends in lane order (bond_gather.hpp): positions, and the BondEnd fields the
+      // pass reads (the inelastic half only when plasticity or fracture is on).
+      ChunkPositions cp;
+      ChunkEnds ce;
+      auto gather = [&](std::size_t k, int n) {
+        gather_positions(bs.y, bs.x, bs.neighbor + k, n, cp);
+        gather_ends<kPlastic || kFracture>(ends, bs.neighbor + k, n, ce);
+      };
+      auto lane = [=, &g_i, &fx, &fy, &fz, &alive_lanes, &breaks_lanes, &cp, &ce](std::size_t k, int l,
+                                                                                  std::uint64_t was_alive) {
+        const double dyx = cp.yx[l] - o.yx, dyy = cp.yy[l] - o.yy, dyz = cp.yz[l] - o.yz;
+        const double dxx = cp.xx[l] - o.xx, dxy = cp.xy[l] - o.xy, dxz = cp.xz[l] - o.xz;
+        const double r = reference_length(dxx, dxy, dxz);
+        BondGeometry g;
+        // A collapsed bond (coincident particles) has no direction: no force, no flow, no break.
+        const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (was_alive != 0);
+        const SideConstants side_j = side_constants<kPlastic || kFracture>(ce, l);
+        const SideLengths weighted =
+            side_lengths<kAnisotropic>(g_i, bs.template anisotropy<kAnisotropic>(bs.neighbor[k]), r, dxx, dxy, dxz);
+        double ep_ij = 0.0, ep_ji = 0.0;
+        if constexpr (kPlastic) {  // plasticity.cpp. Stored as float; the force and the break test use the
+          // rounded value, as the separate systems do when they read it back. Selected in float, then
+          // widened once (a select between a float and a double kept GCC 12 from vectorizing the loop).
+          const float old_ij = bs.plastic[k], old_ji = bs.plastic_mirror[k];
+          const float new_ij = static_cast<float>(side_plastic_extension(g, r, weighted.ij, old_ij, side_i));
+          const float new_ji = static_cast<float>(side_plastic_extension(g, r, weighted.ji, old_ji, side_j));
+          const float kept_ij = active ? new_ij : old_ij, kept_ji = active ? new_ji : old_ji;
+          bs.plastic[k] = kept_ij;
+          bs.plastic_mirror[k] = kept_ji;
+          ep_ij = kept_ij;
+          ep_ji = kept_ji;
+        }
+        // elastic_force.cpp. Computed for every lane, then selected: a load inside the condition would
+        // be a masked gather.
+        const double density = paired_force_density<kAnisotropic, kPlastic>(
+            g, force_weight<kAnisotropic>(side_i.horizon, weighted.inverse_ij),
+            force_weight<kAnisotropic>(side_j.horizon, weighted.inverse_ji), ep_ij,
+            ep_ji, end_i.coupling, end_i.b4, ce.coupling[l], ce.b4[l], ce.volume[l]);
+        const double c = active ? density : 0.0;
+        fx[l] += c * dyx;
+        fy[l] += c * dyy;
+        fz[l] += c * dyz;
+        std::uint64_t breaks = 0;
+        if constexpr (kFracture) {  // fracture.cpp
+          const double scale = kScaled ? double(bs.break_scale[k]) : 1.0;
+          breaks = static_cast<std::uint64_t>(active & (g.extension > 0.0) &
+                                              (side_breaks<kAnisotropic>(g, r, weighted.inverse_ij, ep_ij, side_i, scale) |
+                                               side_breaks<kAnisotropic>(g, r, weighted.inverse_ji, ep_ji, side_j, scale)));
+        }
+        breaks_lanes[l] = breaks;
+        alive_lanes[l] += was_alive & ~breaks;  // damage.cpp (a collapsed bond stays alive)
+      };
+      std::uint8_t* const alive_flag = bs.alive;
+      auto finish = [&breaks_lanes, alive_flag](std::size_t k, int n) {
+        if constexpr (kFracture) {
+          for (int l = 0; l < n; ++l)
+            if (breaks_lanes[l]) alive_flag[k + static_cast<std::size_t>(l)] = 0;  // rare: a predictable branch
+        }
+      };
+      for_each_gathered_bond_lane(bs.offsets[i], bs.offsets[i + 1], alive_flag, gather, lane, finish);
+      const double v_i = end_i.volume;
+      force_p[3 * i] = v_i * sum_lanes(fx);
+      force_p[3 * i + 1] = v_i * sum_lanes(fy);
+      force_p[3 * i + 2] = v_i * sum_lanes(fz);
+      store_damage(damage_p[i], broken_p[i], initial_count_p[i], static_cast<std::uint32_t>(sum_lanes(alive_lanes)));
+    });
   }, 256);
 }
 

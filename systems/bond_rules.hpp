@@ -355,6 +355,30 @@ inline decltype(auto) dispatch_flags(Kernel&& kernel, Flags... flags) {
   return detail::dispatch_flags<>(kernel, static_cast<bool>(flags)...);
 }
 
+// Particle i's row of a bond kernel in the anisotropic form only where it is needed: calls
+// row(std::bool_constant<kAnisotropic>{}) with kAnisotropic true when the world has an anisotropic
+// material and i's body holds one (ParticleModel::anisotropic_family), else false. For a particle of
+// an isotropic body the two forms differ in rounding only (1/ℓ from ℓ_ij ℓ_ji instead of 1/|ξ|), and
+// the isotropic one skips two weighted lengths and a division per bond: in fig01's walls, one of them
+// anisotropic, the isotropic wall ran the anisotropic form. Every bond joins two particles of the same
+// flag, so both of its ends use the same form (bond_rules.hpp's symmetry holds).
+template <bool kAnisotropicWorld, class Row>
+inline void dispatch_row(const std::vector<std::uint8_t>& anisotropic_family, std::size_t i, Row&& row) {
+  if constexpr (kAnisotropicWorld) {
+    if (anisotropic_family.empty() || anisotropic_family[i]) {  // empty: not marked (a world built by hand)
+      row(std::true_type{});
+      return;
+    }
+  }
+  row(std::false_type{});
+}
+
+// The same choice as a run-time flag (scalar code off the bond kernels' hot path, e.g. fracture.cpp).
+inline bool anisotropic_row(const WorldState& w, std::size_t i) {
+  const auto& family = w.model.anisotropic_family;
+  return w.any_anisotropic && (family.empty() || family[i]);
+}
+
 // Eq 19's damage of a particle from its bond counts: φ = 1 − n/N, and broken = N − n.
 inline void store_damage(double& damage, std::uint32_t& broken, std::uint32_t initial, std::uint32_t alive) {
   damage = initial ? 1.0 - double(alive) / double(initial) : 0.0;

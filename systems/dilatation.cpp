@@ -18,31 +18,36 @@ void compute_dilatation(const WorldState& w, const std::vector<Vec3>& y_vec, std
   const double* const volume = w.particles.volume.data();
   const auto& md = w.model;
   dispatch_flags([&](auto aniso) {
-    constexpr bool kAnisotropic = decltype(aniso)::value;
+    constexpr bool kAnisotropicWorld = decltype(aniso)::value;
     parallel_for_each(w.particles.count(), [&](std::size_t i) {
-      const auto o = bs.origin(i);
-      const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
-      double sum[kBondLanes] = {};
-      ChunkPositions c;  // the chunk's far ends (bond_gather.hpp)
-      auto gather = [&](std::size_t k, int n) { gather_positions(bs.y, bs.x, bs.neighbor + k, n, c); };
-      // Lane-strided so that the bond loop runs as SIMD with a fixed summation order (bond_rules.hpp).
-      // ω e Λ = (δ_i/ℓ)(|y_j−y_i| − |ξ|)(y_j−y_i)·ξ/(|y_j−y_i| |ξ|): δ_i moves out of the sum, and one
-      // division per bond remains. A collapsed bond has no direction.
-      auto lane = [=, &sum, &g_i, &c](std::size_t k, int l, std::uint64_t is_alive) {
-        const std::size_t j = bs.neighbor[k];
-        const double dyx = c.yx[l] - o.yx, dyy = c.yy[l] - o.yy, dyz = c.yz[l] - o.yz;
-        const double dxx = c.xx[l] - o.xx, dxy = c.xy[l] - o.xy, dxz = c.xz[l] - o.xz;
-        const double r = reference_length(dxx, dxy, dxz);
-        const double ell = weighted_length<kAnisotropic>(g_i, r, dxx, dxy, dxz);
-        const double dot = dyx * dxx + dyy * dxy + dyz * dxz;
-        const double len = std::sqrt(dyx * dyx + dyy * dyy + dyz * dyz);
-        const double term = (len - r) * dot * volume[j] / (len * r * ell);
-        sum[l] += (is_alive != 0) & (len > 0.0) ? term : 0.0;
-      };
-      for_each_gathered_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, gather, lane, [](std::size_t, int) {});
-      const double th = md.dilatation_scale[i] * md.horizon[i] * sum_lanes(sum);
-      theta[i] = th;
-      coupling[i] = dilatation_coupling(md, i, th);
+      // Either form gives the same bits for an isotropic particle (ℓ = |ξ| exactly for M = I); the
+      // isotropic one skips the weighted length.
+      dispatch_row<kAnisotropicWorld>(w.model.anisotropic_family, i, [&](auto row_form) {
+        constexpr bool kAnisotropic = decltype(row_form)::value;
+        const auto o = bs.origin(i);
+        const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
+        double sum[kBondLanes] = {};
+        ChunkPositions c;  // the chunk's far ends (bond_gather.hpp)
+        auto gather = [&](std::size_t k, int n) { gather_positions(bs.y, bs.x, bs.neighbor + k, n, c); };
+        // Lane-strided so that the bond loop runs as SIMD with a fixed summation order (bond_rules.hpp).
+        // ω e Λ = (δ_i/ℓ)(|y_j−y_i| − |ξ|)(y_j−y_i)·ξ/(|y_j−y_i| |ξ|): δ_i moves out of the sum, and one
+        // division per bond remains. A collapsed bond has no direction.
+        auto lane = [=, &sum, &g_i, &c](std::size_t k, int l, std::uint64_t is_alive) {
+          const std::size_t j = bs.neighbor[k];
+          const double dyx = c.yx[l] - o.yx, dyy = c.yy[l] - o.yy, dyz = c.yz[l] - o.yz;
+          const double dxx = c.xx[l] - o.xx, dxy = c.xy[l] - o.xy, dxz = c.xz[l] - o.xz;
+          const double r = reference_length(dxx, dxy, dxz);
+          const double ell = weighted_length<kAnisotropic>(g_i, r, dxx, dxy, dxz);
+          const double dot = dyx * dxx + dyy * dxy + dyz * dxz;
+          const double len = std::sqrt(dyx * dyx + dyy * dyy + dyz * dyz);
+          const double term = (len - r) * dot * volume[j] / (len * r * ell);
+          sum[l] += (is_alive != 0) & (len > 0.0) ? term : 0.0;
+        };
+        for_each_gathered_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, gather, lane, [](std::size_t, int) {});
+        const double th = md.dilatation_scale[i] * md.horizon[i] * sum_lanes(sum);
+        theta[i] = th;
+        coupling[i] = dilatation_coupling(md, i, th);
+      });
     });
   }, w.any_anisotropic);
 }

@@ -48,35 +48,38 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec,
   const double* const p = coupling.data();
   double* const out = force.data()->data();
   dispatch_flags([&](auto aniso, auto plastic_on) {
-    constexpr bool kAnisotropic = decltype(aniso)::value, kPlastic = decltype(plastic_on)::value;
+    constexpr bool kAnisotropicWorld = decltype(aniso)::value, kPlastic = decltype(plastic_on)::value;
     parallel_for_each(w.particles.count(), [&](std::size_t i) {
-      const auto o = bs.origin(i);
-      const double p_i = p[i], b4_i = b4[i], delta_i = bs.horizon[i];
-      const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
-      double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
-      auto lane = [=, &fx, &fy, &fz, &g_i](std::size_t k, int l, std::uint64_t is_alive) {
-        const std::size_t j = bs.neighbor[k];
-        const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
-        const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
-        const double r = reference_length(dxx, dxy, dxz);
-        BondGeometry g;
-        const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (is_alive != 0);
-        const SideLengths weighted =
-            side_lengths<kAnisotropic>(g_i, bs.template anisotropy<kAnisotropic>(j), r, dxx, dxy, dxz);
-        const double w_ij = force_weight<kAnisotropic>(delta_i, weighted.inverse_ij);
-        const double w_ji = force_weight<kAnisotropic>(bs.horizon[j], weighted.inverse_ji);
-        const double ep_ij = kPlastic ? double(bs.plastic[k]) : 0.0, ep_ji = kPlastic ? double(bs.plastic_mirror[k]) : 0.0;
-        const double density = paired_force_density<kAnisotropic, kPlastic>(g, w_ij, w_ji, ep_ij, ep_ji, p_i, b4_i, p[j],
-                                                                            b4[j], volume[j]);
-        const double c = active ? density : 0.0;
-        fx[l] += c * dyx;
-        fy[l] += c * dyy;
-        fz[l] += c * dyz;
-      };
-      for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
-      out[3 * i] = volume[i] * sum_lanes(fx);
-      out[3 * i + 1] = volume[i] * sum_lanes(fy);
-      out[3 * i + 2] = volume[i] * sum_lanes(fz);
+      dispatch_row<kAnisotropicWorld>(w.model.anisotropic_family, i, [&](auto row_form) {  // as bond_pass.cpp
+        constexpr bool kAnisotropic = decltype(row_form)::value;
+        const auto o = bs.origin(i);
+        const double p_i = p[i], b4_i = b4[i], delta_i = bs.horizon[i];
+        const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
+        double fx[kBondLanes] = {}, fy[kBondLanes] = {}, fz[kBondLanes] = {};
+        auto lane = [=, &fx, &fy, &fz, &g_i](std::size_t k, int l, std::uint64_t is_alive) {
+          const std::size_t j = bs.neighbor[k];
+          const double dyx = bs.y[3 * j] - o.yx, dyy = bs.y[3 * j + 1] - o.yy, dyz = bs.y[3 * j + 2] - o.yz;
+          const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
+          const double r = reference_length(dxx, dxy, dxz);
+          BondGeometry g;
+          const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (is_alive != 0);
+          const SideLengths weighted =
+              side_lengths<kAnisotropic>(g_i, bs.template anisotropy<kAnisotropic>(j), r, dxx, dxy, dxz);
+          const double w_ij = force_weight<kAnisotropic>(delta_i, weighted.inverse_ij);
+          const double w_ji = force_weight<kAnisotropic>(bs.horizon[j], weighted.inverse_ji);
+          const double ep_ij = kPlastic ? double(bs.plastic[k]) : 0.0, ep_ji = kPlastic ? double(bs.plastic_mirror[k]) : 0.0;
+          const double density = paired_force_density<kAnisotropic, kPlastic>(g, w_ij, w_ji, ep_ij, ep_ji, p_i, b4_i, p[j],
+                                                                              b4[j], volume[j]);
+          const double c = active ? density : 0.0;
+          fx[l] += c * dyx;
+          fy[l] += c * dyy;
+          fz[l] += c * dyz;
+        };
+        for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
+        out[3 * i] = volume[i] * sum_lanes(fx);
+        out[3 * i + 1] = volume[i] * sum_lanes(fy);
+        out[3 * i + 2] = volume[i] * sum_lanes(fz);
+      });
     }, 256);
   }, w.any_anisotropic, w.any_plastic);
 }

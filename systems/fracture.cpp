@@ -42,7 +42,7 @@ bool breaks(const WorldState& w, const std::vector<Vec3>& y, std::uint32_t i, st
 
 bool bond_breaks(const WorldState& w, const std::vector<Vec3>& y, std::uint32_t owner, std::uint32_t k) {
   return dispatch_flags([&](auto aniso) { return breaks<decltype(aniso)::value>(w, y, owner, k); },
-                        w.any_anisotropic);
+                        anisotropic_row(w, owner));  // the bond kernels' form for this row (dispatch_row)
 }
 
 void update_fracture(WorldState& w, const std::vector<Vec3>& y) {

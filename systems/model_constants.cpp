@@ -23,6 +23,7 @@
 //         inelastic constants per particle (yield_extension = √(2Ψ0)/(b4 δ), plastic_cap, critical_stretch,
 //         damage_alpha).
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <vector>
 
@@ -55,6 +56,41 @@ double critical_stretch_from_energy(double fracture_energy, double kappa, double
 double yield_extension_from_stress(double yield_stress, double mu) {
   if (!std::isfinite(yield_stress)) return kInfinity;
   return std::sqrt(3.0) * yield_stress / (10.0 * mu);
+}
+
+void mark_anisotropic_families(WorldState& w) {
+  auto& family = w.model.anisotropic_family;
+  family.clear();
+  if (!w.any_anisotropic) return;
+  const auto& p = w.particles;
+  const auto& b = w.bonds;
+  const std::size_t n = p.count();
+  std::uint32_t bodies = 0;
+  for (std::size_t i = 0; i < n; ++i) bodies = std::max(bodies, std::uint32_t{p.body_id[i]} + 1);
+  std::vector<std::uint8_t> by_body(bodies, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const AnisotropyMetric& m = w.model.anisotropy_metric[i];
+    if (!(m.xx == 1.0 && m.yy == 1.0 && m.zz == 1.0 && m.xy == 0.0 && m.xz == 0.0 && m.yz == 0.0)) by_body[p.body_id[i]] = 1;
+  }
+  // Bodies are joined by bonds only where a scene glues them; a flag crosses every such bond, until
+  // none joins two different flags (at most one round per body). Usually no bond joins two bodies
+  // with different flags: one parallel pass finds that.
+  std::atomic<bool> mixed{false};
+  parallel_for_each(n, [&](std::size_t i) {
+    for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k)
+      if (by_body[p.body_id[i]] != by_body[p.body_id[b.neighbor[k]]]) mixed.store(true, std::memory_order_relaxed);
+  }, 4096);
+  for (bool changed = mixed.load(); changed;) {
+    changed = false;
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
+        std::uint8_t& a = by_body[p.body_id[i]];
+        std::uint8_t& c = by_body[p.body_id[b.neighbor[k]]];
+        if (a != c) a = c = 1, changed = true;
+      }
+  }
+  family.resize(n);
+  for (std::size_t i = 0; i < n; ++i) family[i] = by_body[p.body_id[i]];
 }
 
 void compute_model_constants(WorldState& w) {

@@ -21,6 +21,8 @@ void build_families(WorldState& world, const std::vector<std::array<std::int32_t
 std::size_t remove_cracked_bonds(WorldState& world, const std::vector<scene::Crack>& cracks);
 // model_constants.cpp: per-particle a, b, θ scale and β for the paper or discrete normalization.
 void compute_model_constants(WorldState& world);
+// ParticleModel::anisotropic_family from the materials and the bonds (after build_families).
+void mark_anisotropic_families(WorldState& world);
 // Physical parameters → model values (systems/README.md §12): s_c for a fracture energy G_c (J/m²)
 // at horizon δ, and the yield extension Y for a yield stress σ_y (Pa). ∞ in gives ∞ out.
 // The continuum relation G = K δ s_c² under-counts what a running crack dissipates by a factor

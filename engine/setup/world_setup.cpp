@@ -133,6 +133,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   scheduler.execute([&] {
     systems::build_families(w, adjacency);
     systems::remove_cracked_bonds(w, scene.cracks);
+    systems::mark_anisotropic_families(w);
     phase("families");
     systems::setup_embedded_mesh(w, adjacency);  // after the bonds: a face pair without one starts cracked
     phase("embedded mesh");

@@ -97,3 +97,46 @@ TEST_CASE("G = identity, as a matrix or as an axis with equal ratios 1, reproduc
   CHECK(same(iso, matrix));
   CHECK(same(iso, axis));
 }
+
+TEST_CASE("an isotropic body beside an anisotropic one runs the isotropic bond form: the same bits as alone") {
+  // Two 6 cm boxes 1 m apart, the second of an anisotropic material (G = diag(2, 1, 1)). Only the
+  // anisotropic body's rows take the anisotropic form of the bond kernels (dispatch_row), so the
+  // isotropic box, deformed and let go, moves exactly as it does in a scene of its own. Before, a
+  // single anisotropic material switched every row to that form, which rounds 1/ℓ differently (and
+  // cost fig01's isotropic wall two weighted lengths and a division per bond).
+  auto alone = test::box_scene(Vec3(0.06, 0.06, 0.06), 0.01, 3.3e5, 2.0e5);
+  alone.contact.mode = scene::Contact::Mode::off;
+  auto mixed = alone;
+  scene::Material m = mixed.materials[0];
+  m.name = "grain";
+  m.anisotropy = Vec3(2.0, 1.0, 1.0).asDiagonal();
+  mixed.materials.push_back(m);
+  scene::Body b = mixed.bodies[0];
+  b.name = "grained";
+  b.material = 1;
+  b.transform.translation = Vec3(1.0, 0.0, 0.0);
+  mixed.bodies.push_back(b);
+  World one(alone), two(mixed);
+  REQUIRE(two.state().any_anisotropic);
+  const std::size_t n = one.state().particles.count();
+  REQUIRE(two.state().particles.count() == 2 * n);
+  const auto& family = two.state().model.anisotropic_family;
+  REQUIRE(family.size() == 2 * n);
+  for (std::size_t i = 0; i < 2 * n; ++i) CHECK(family[i] == (i < n ? 0 : 1));
+  // The same deformation of the first box in both worlds (and of the second box, which must not matter).
+  for (World* w : {&one, &two}) {
+    auto& s = w->state_mutable();
+    for (std::size_t i = 0; i < s.particles.count(); ++i) {
+      const Vec3& x = s.particles.reference_position[i];
+      s.particles.position[i] = x + 2e-3 * Vec3(std::sin(40.0 * x.y()), std::sin(30.0 * x.z()), std::sin(50.0 * x.x()));
+    }
+  }
+  one.step(40);
+  two.step(40);
+  std::size_t same = 0;
+  for (std::size_t i = 0; i < n; ++i) same += one.positions()[i] == two.positions()[i];
+  CHECK(same == n);
+  double moved = 0.0;
+  for (std::size_t i = 0; i < n; ++i) moved = std::max(moved, (one.positions()[i] - one.state().particles.reference_position[i]).norm());
+  CHECK(moved > 1e-4);  // it did deform and move
+}
