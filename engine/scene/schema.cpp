@@ -343,7 +343,9 @@ Key build_spec() {
       "piece of the particles' Morton order with an equal share of the work; as bonds break and pieces "
       "fly apart the shares drift, and the pieces are re-split when the busiest rank's work exceeds the "
       "mean by more than `rebalance_drift`. Work per particle: its alive bonds, its contact candidates "
-      "and 8 (the per-particle passes). A re-split changes no result bit.", {
+      "and 8 (the per-particle passes), and a fifth of its alive bonds more while the split mesh steps its "
+      "held rotation (a particle with a broken bond in a scene that writes the mesh). A re-split changes no "
+      "result bit.", {
       number("rebalance_drift", "Largest tolerated excess of the busiest rank's work over the mean, as a "
                                 "fraction; 0 re-splits at every check where the split would change.")
           .ge(0).def(0.2),
