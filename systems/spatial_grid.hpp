@@ -96,8 +96,8 @@ inline void scan_range(const SpatialGrid& g, std::uint32_t from, std::uint32_t t
     const __m512i own_key = _mm512_set1_epi64(static_cast<long long>(f.own_key));
     const __m256i self = _mm256_set1_epi32(static_cast<int>(f.self));
     // Slot j's x, y, z sit at doubles 3j, 3j + 1, 3j + 2 of the three loaded vectors (0–7, 8–15,
-    // 16–23): the first permute takes the lanes that lie in the first two, the second keeps those
-    // (indices 0–5) and takes the rest from the third (8 + position).
+    // 16–23): the first permute takes the lanes that lie in the first two (x: lanes 0–5, y and z:
+    // 0–4), the second keeps those and takes the rest from the third (index 8 + position there).
     const __m512i x_01 = _mm512_set_epi64(0, 0, 15, 12, 9, 6, 3, 0), x_2 = _mm512_set_epi64(13, 10, 5, 4, 3, 2, 1, 0);
     const __m512i y_01 = _mm512_set_epi64(0, 0, 0, 13, 10, 7, 4, 1), y_2 = _mm512_set_epi64(14, 11, 8, 4, 3, 2, 1, 0);
     const __m512i z_01 = _mm512_set_epi64(0, 0, 0, 14, 11, 8, 5, 2), z_2 = _mm512_set_epi64(15, 12, 9, 4, 3, 2, 1, 0);

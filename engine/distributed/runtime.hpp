@@ -105,9 +105,10 @@ class Runtime {
   int ranks() const;
   // One step of the local world with its halos, then the clock. Collective. Every
   // settings.distributed.rebalance_interval steps it measures each rank's work (current_work: alive
-  // bonds, contact candidates, kParticleWork and held rotations per owned particle); when the busiest exceeds the mean by more than
-  // rebalance_drift and the equal-work split of the current work differs from the current one, the
-  // report asks for a re-split (World::step makes it: gather, broadcast_world, a new Runtime).
+  // bonds, contact candidates, kParticleWork and held rotations per owned particle); when the busiest
+  // exceeds the mean by more than rebalance_drift and the equal-work split of the current work differs
+  // from the current one, the report asks for a re-split (World::step makes it: gather,
+  // broadcast_world, a new Runtime).
   StepReport step(bool check_broken);
   const std::vector<Domain>& rebalanced_domains() const;
   // Rank 0's `full` (its particle, bond and other arrays) on every rank, for a re-split. Collective.

@@ -2,9 +2,9 @@
 # Distributed runs are bit-identical to one process (issue 17): runs mpi_impact.json (plasticity,
 # fracture with damage-dependent limits, particle contact with friction, a steel ball, an anchor, a
 # velocity condition, gravity, a surface traction, and an anisotropic block the plate's pieces strike,
-# so isotropic and anisotropic rows of the bond kernels meet) in one process, then under mpirun at 1, 2, 3 and
-# 4 ranks of 1 thread, at 2 ranks of 2 threads and at 3 ranks over TCP (loopback), and compares every
-# output file byte for byte: particle frames (vtu, ply), split-mesh surfaces (obj, ply, vtp), tet
+# so isotropic and anisotropic rows of the bond kernels meet) in one process, then under mpirun at 1,
+# 2, 3 and 4 ranks of 1 thread, at 2 ranks of 2 threads and at 3 ranks over TCP (loopback), and
+# compares every output file byte for byte: particle frames (vtu, ply), split-mesh surfaces (obj, ply, vtp), tet
 # meshes (vtu), the Blender cache (animation.obj/.pc2), glTF, dust, pieces.csv, mesh.json and
 # projectiles.csv (all but summary.json and checkpoint.bin). It first checks that the reference run
 # yields, breaks into pieces, is struck by the ball and lifted by a rising box collider (which reads
