@@ -4,6 +4,8 @@
 // enough that deviatoric bonds of the 1e-3 pre-stretch are on the yield surface) and is breakable
 // (s_c finite but far above the imposed stretch, so the check runs on every bond and nothing breaks:
 // the topology, and so the work per step, stays fixed while timing).
+#include <algorithm>
+
 #include "bench_support.hpp"
 
 namespace perifx::bench {
@@ -53,6 +55,50 @@ void BM_BondPass(benchmark::State& state) {
   report(state, world, threads, static_cast<double>(world.bond_count()));
 }
 BENCHMARK(BM_BondPass)->Apply(sizes_and_threads);
+
+// The fused bond pass on the inelastic body made of an anisotropic material (G = 2 along a tilted
+// axis, Eq 17), whose rows take the anisotropic form of the bond kernels: the cost of anisotropy beside
+// BM_BondPass. form:1 is the shipped marking (one material, so every row is RowForm::shared_metric:
+// one weighted length per bond); form:0 forces the general form (ℓ_ij and ℓ_ji each from its
+// particle's metric, the far metric gathered), which a row at a boundary between two anisotropic
+// materials takes. Both give the same bits (test_anisotropy.cpp).
+World& anisotropic_world(std::int64_t particles, int threads) {
+  static std::map<std::pair<std::int64_t, int>, std::unique_ptr<World>> worlds;
+  auto& slot = worlds[{particles, threads}];
+  if (!slot) {
+    scene::Scene s = box_scene(cubes_for(particles), threads, bench_dt());
+    make_inelastic(s);
+    const Vec3 a = Vec3(1.0, 1.0, 0.5).normalized();
+    s.materials[0].anisotropy = 2.0 * a * a.transpose() + (Mat3::Identity() - a * a.transpose());
+    slot = std::make_unique<World>(s);
+    deform(*slot, threads);
+  }
+  return *slot;
+}
+void BM_BondPassAnisotropic(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(1));
+  World& world = anisotropic_world(state.range(0), threads);
+  WorldState& w = world.state_mutable();
+  const auto form = state.range(2) ? RowForm::shared_metric : RowForm::anisotropic;
+  std::fill(w.model.anisotropic_family.begin(), w.model.anisotropic_family.end(), static_cast<std::uint8_t>(form));
+  auto& a = arena(threads);
+  for (auto _ : state) {
+    a.execute([&] { systems::run_bond_pass(w, w.particles.position, w.state.internal_force); });
+    benchmark::DoNotOptimize(w.state.internal_force.data());
+    benchmark::ClobberMemory();
+  }
+  if (!all_finite(w.state.internal_force)) state.SkipWithError("non-finite internal force");
+  if (world.alive_bond_count() != world.bond_count()) state.SkipWithError("bonds broke: the timed work changed");
+  report(state, world, threads, static_cast<double>(world.bond_count()));
+}
+BENCHMARK(BM_BondPassAnisotropic)->Apply([](benchmark::internal::Benchmark* b) {
+  b->ArgNames({"particles", "threads", "form"});
+  for (int cubes : {12, 37})
+    for (int threads : {1, 2})
+      for (int form : {0, 1}) b->Args({6LL * cubes * cubes * cubes, threads, form});
+  b->UseRealTime();
+  b->Unit(benchmark::kMillisecond);
+});
 
 // Particle–particle contact alone (contact.cpp) on the intact inelastic body, step-equivalent rate
 // (the body's bonds per iteration), to compare with the bond kernels.

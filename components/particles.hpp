@@ -45,15 +45,23 @@ struct AnisotropyMetric {
   double xx, yy, zz, xy, xz, yz;
 };
 
+// Values of ParticleModel::anisotropic_family.
+enum class RowForm : std::uint8_t {
+  isotropic = 0,     // ℓ = |ξ|
+  anisotropic = 1,   // ℓ_ij = |G_i ξ| and ℓ_ji = |G_j ξ|, each from its particle's metric
+  shared_metric = 2  // anisotropic, and every neighbour's metric equals this particle's: ℓ_ji = ℓ_ij
+};
+
 struct ParticleModel {
   std::vector<double> horizon;          // δ, m
   // Per particle when some material has G ≠ I (WorldState::any_anisotropic), else empty.
   std::vector<AnisotropyMetric> anisotropy_metric;
-  // Per particle when some material has G ≠ I, else empty: 1 when the particle's body holds an
-  // anisotropic particle (or is joined by a bond to a body that does). Only those rows run the bond
-  // kernels' anisotropic form (bond_rules.hpp, dispatch_row); a body of an isotropic material runs
-  // the isotropic one, in any scene. Per body, so both ends of every bond use the same form and
-  // compute the same bits.
+  // Per particle when some material has G ≠ I, else empty: the form of the particle's row in the bond
+  // kernels (bond_rules.hpp, dispatch_row), a RowForm value. Anisotropic when the particle's body holds
+  // an anisotropic particle (or is joined by a bond to a body that does), so a body of an isotropic
+  // material runs the isotropic form in any scene; per body, so both ends of every bond use the same
+  // form and compute the same bits. Of those rows, the ones whose every neighbour has the particle's
+  // own GᵀG bit for bit (inside one material) take one weighted length per bond, not two.
   std::vector<std::uint8_t> anisotropic_family;
   std::vector<double> dilatation_scale; // θ_i = dilatation_scale_i · Σ ω e Λ V  (paper: 9/(4πδ⁴))
   std::vector<double> a4;               // 4a, Pa/m⁴ (paper: 4·9κ/(8πδ⁴))

@@ -54,7 +54,7 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
   const auto& anisotropic_family = w.model.anisotropic_family;
   parallel_for_each(w.particles.count(), [=, &anisotropic_family](std::size_t i) {
     dispatch_row<kAnisotropicWorld>(anisotropic_family, i, [=](auto row_form) {
-      constexpr bool kAnisotropic = decltype(row_form)::value;
+      constexpr bool kAnisotropic = decltype(row_form)::value, kSharedMetric = decltype(row_form)::shared_metric;
       const auto bs = bs_p;
       const BondEnd* const ends = ends_p;
       const auto o = bs.origin(i);
@@ -80,8 +80,8 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
         // A collapsed bond (coincident particles) has no direction: no force, no flow, no break.
         const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (was_alive != 0);
         const SideConstants side_j = side_constants<kPlastic || kFracture>(ce, l);
-        const SideLengths weighted =
-            side_lengths<kAnisotropic>(g_i, bs.template anisotropy<kAnisotropic>(bs.neighbor[k]), r, dxx, dxy, dxz);
+        const SideLengths weighted = side_lengths<kAnisotropic, kSharedMetric>(
+            g_i, bs.template anisotropy<kAnisotropic && !kSharedMetric>(bs.neighbor[k]), r, dxx, dxy, dxz);
         double ep_ij = 0.0, ep_ji = 0.0;
         if constexpr (kPlastic) {  // plasticity.cpp. Stored as float; the force and the break test use the
           // rounded value, as the separate systems do when they read it back. Selected in float, then

@@ -63,14 +63,21 @@ inline double weighted_length(const AnisotropyMetric& m, double r, double dxx, d
 // 1/ℓ_ji = ℓ_ij u (the pass is bound by divisions and square roots). Still bit-symmetric: seen from
 // j, the same two lengths are multiplied in the other order, which is exact. Isotropic: ℓ = r on both
 // sides, and the reciprocals are not used (the isotropic 1/|ξ| enters with BondGeometry).
+// kSharedMetric (a RowForm::shared_metric row: j's metric is i's, bit for bit): ℓ_ji is ℓ_ij, computed
+// once and m_j not read; the same bits as computing it twice, since both are the same expression of the
+// same numbers.
 struct SideLengths {
   double ij, ji;                  // ℓ_ij, ℓ_ji, m
   double inverse_ij, inverse_ji;  // 1/ℓ_ij, 1/ℓ_ji, 1/m (anisotropic worlds only)
 };
-template <bool kAnisotropic>
+template <bool kAnisotropic, bool kSharedMetric = false>
 inline SideLengths side_lengths(const AnisotropyMetric& m_i, const AnisotropyMetric& m_j, double r, double dxx,
                                 double dxy, double dxz) {
-  if constexpr (kAnisotropic) {
+  if constexpr (kAnisotropic && kSharedMetric) {
+    const double l = anisotropic_length(m_i, dxx, dxy, dxz);
+    const double u = 1.0 / (l * l);
+    return {l, l, l * u, l * u};
+  } else if constexpr (kAnisotropic) {
     const double l_ij = anisotropic_length(m_i, dxx, dxy, dxz), l_ji = anisotropic_length(m_j, dxx, dxy, dxz);
     const double u = 1.0 / (l_ij * l_ji);
     return {l_ij, l_ji, l_ji * u, l_ij * u};
@@ -355,28 +362,43 @@ inline decltype(auto) dispatch_flags(Kernel&& kernel, Flags... flags) {
   return detail::dispatch_flags<>(kernel, static_cast<bool>(flags)...);
 }
 
-// Particle i's row of a bond kernel in the anisotropic form only where it is needed: calls
-// row(std::bool_constant<kAnisotropic>{}) with kAnisotropic true when the world has an anisotropic
-// material and i's body holds one (ParticleModel::anisotropic_family), else false. For a particle of
-// an isotropic body the two forms differ in rounding only (1/ℓ from ℓ_ij ℓ_ji instead of 1/|ξ|), and
-// the isotropic one skips two weighted lengths and a division per bond: in fig01's walls, one of them
-// anisotropic, the isotropic wall ran the anisotropic form. Every bond joins two particles of the same
-// flag, so both of its ends use the same form (bond_rules.hpp's symmetry holds).
+// The form of particle i's row (ParticleModel::anisotropic_family) in an anisotropic world. An empty
+// array (a world built by hand, never marked) takes the general anisotropic form, which is right for
+// every row.
+inline RowForm row_form(const std::vector<std::uint8_t>& anisotropic_family, std::size_t i) {
+  return anisotropic_family.empty() ? RowForm::anisotropic : static_cast<RowForm>(anisotropic_family[i]);
+}
+
+// What dispatch_row hands a row: value is kAnisotropic (so decltype(form)::value reads as a flag), and
+// shared_metric says every neighbour's metric is the particle's own (side_lengths' kSharedMetric).
+template <bool kAnisotropic, bool kSharedMetric = false>
+struct RowFormTag : std::bool_constant<kAnisotropic> {
+  static constexpr bool shared_metric = kSharedMetric;
+};
+
+// Particle i's row of a bond kernel in the anisotropic form only where it is needed: calls row(tag)
+// with a RowFormTag for i's RowForm in an anisotropic world, and the isotropic tag otherwise. For a
+// particle of an isotropic body the two forms differ in rounding only (1/ℓ from ℓ_ij ℓ_ji instead of
+// 1/|ξ|), and the isotropic one skips two weighted lengths and a division per bond: in fig01's walls,
+// one of them anisotropic, the isotropic wall ran the anisotropic form. Every bond joins two
+// particles of the same form family, so both of its ends use the same form (bond_rules.hpp's
+// symmetry holds); a shared-metric row gives the same bits as the general anisotropic form.
 template <bool kAnisotropicWorld, class Row>
 inline void dispatch_row(const std::vector<std::uint8_t>& anisotropic_family, std::size_t i, Row&& row) {
   if constexpr (kAnisotropicWorld) {
-    if (anisotropic_family.empty() || anisotropic_family[i]) {  // empty: not marked (a world built by hand)
-      row(std::true_type{});
-      return;
+    switch (row_form(anisotropic_family, i)) {
+      case RowForm::shared_metric: row(RowFormTag<true, true>{}); return;
+      case RowForm::anisotropic: row(RowFormTag<true>{}); return;
+      case RowForm::isotropic: break;
     }
   }
-  row(std::false_type{});
+  row(RowFormTag<false>{});
 }
 
-// The same choice as a run-time flag (scalar code off the bond kernels' hot path, e.g. fracture.cpp).
+// Whether particle i's row takes an anisotropic form, as a run-time flag (scalar code off the bond
+// kernels' hot path, e.g. fracture.cpp; the same choice as dispatch_row).
 inline bool anisotropic_row(const WorldState& w, std::size_t i) {
-  const auto& family = w.model.anisotropic_family;
-  return w.any_anisotropic && (family.empty() || family[i]);
+  return w.any_anisotropic && row_form(w.model.anisotropic_family, i) != RowForm::isotropic;
 }
 
 // Eq 19's damage of a particle from its bond counts: φ = 1 − n/N, and broken = N − n.

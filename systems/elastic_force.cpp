@@ -51,7 +51,7 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec,
     constexpr bool kAnisotropicWorld = decltype(aniso)::value, kPlastic = decltype(plastic_on)::value;
     parallel_for_each(w.particles.count(), [&](std::size_t i) {
       dispatch_row<kAnisotropicWorld>(w.model.anisotropic_family, i, [&](auto row_form) {  // as bond_pass.cpp
-        constexpr bool kAnisotropic = decltype(row_form)::value;
+        constexpr bool kAnisotropic = decltype(row_form)::value, kSharedMetric = decltype(row_form)::shared_metric;
         const auto o = bs.origin(i);
         const double p_i = p[i], b4_i = b4[i], delta_i = bs.horizon[i];
         const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
@@ -63,8 +63,8 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec,
           const double r = reference_length(dxx, dxy, dxz);
           BondGeometry g;
           const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (is_alive != 0);
-          const SideLengths weighted =
-              side_lengths<kAnisotropic>(g_i, bs.template anisotropy<kAnisotropic>(j), r, dxx, dxy, dxz);
+          const SideLengths weighted = side_lengths<kAnisotropic, kSharedMetric>(
+              g_i, bs.template anisotropy<kAnisotropic && !kSharedMetric>(j), r, dxx, dxy, dxz);
           const double w_ij = force_weight<kAnisotropic>(delta_i, weighted.inverse_ij);
           const double w_ji = force_weight<kAnisotropic>(bs.horizon[j], weighted.inverse_ji);
           const double ep_ij = kPlastic ? double(bs.plastic[k]) : 0.0, ep_ji = kPlastic ? double(bs.plastic_mirror[k]) : 0.0;

@@ -25,6 +25,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 #include "bond_rules.hpp"
@@ -68,8 +69,11 @@ void mark_anisotropic_families(WorldState& w) {
   std::uint32_t bodies = 0;
   for (std::size_t i = 0; i < n; ++i) bodies = std::max(bodies, std::uint32_t{p.body_id[i]} + 1);
   std::vector<std::uint8_t> by_body(bodies, 0);
+  // Decided on the metric GᵀG, which is what the kernels read: a G ≠ I that is a rotation
+  // (any_anisotropic set) has GᵀG = I and gives every bond its isotropic length.
+  const auto& metric = w.model.anisotropy_metric;
   for (std::size_t i = 0; i < n; ++i) {
-    const AnisotropyMetric& m = w.model.anisotropy_metric[i];
+    const AnisotropyMetric& m = metric[i];
     if (!(m.xx == 1.0 && m.yy == 1.0 && m.zz == 1.0 && m.xy == 0.0 && m.xz == 0.0 && m.yz == 0.0)) by_body[p.body_id[i]] = 1;
   }
   // Bodies are joined by bonds only where a scene glues them; a flag crosses every such bond, until
@@ -89,8 +93,16 @@ void mark_anisotropic_families(WorldState& w) {
         if (a != c) a = c = 1, changed = true;
       }
   }
+  // An anisotropic row whose every neighbour (broken bonds included: the rows only lose bonds) has
+  // the particle's metric bit for bit takes the shared-metric form. Compared as bytes, so that a
+  // −0.0 against a 0.0 is a difference.
   family.resize(n);
-  for (std::size_t i = 0; i < n; ++i) family[i] = by_body[p.body_id[i]];
+  parallel_for_each(n, [&](std::size_t i) {
+    RowForm form = by_body[p.body_id[i]] ? RowForm::shared_metric : RowForm::isotropic;
+    for (std::uint32_t k = b.offsets[i]; form == RowForm::shared_metric && k < b.offsets[i + 1]; ++k)
+      if (std::memcmp(&metric[i], &metric[b.neighbor[k]], sizeof(AnisotropyMetric)) != 0) form = RowForm::anisotropic;
+    family[i] = static_cast<std::uint8_t>(form);
+  }, 4096);
 }
 
 void compute_model_constants(WorldState& w) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "systems/bond_rules.hpp"
+#include "systems/systems.hpp"
 #include "support.hpp"
 
 using namespace perifx;
@@ -122,7 +123,11 @@ TEST_CASE("an isotropic body beside an anisotropic one runs the isotropic bond f
   REQUIRE(two.state().particles.count() == 2 * n);
   const auto& family = two.state().model.anisotropic_family;
   REQUIRE(family.size() == 2 * n);
-  for (std::size_t i = 0; i < 2 * n; ++i) CHECK(family[i] == (i < n ? 0 : 1));
+  // The grained box is one material, so each of its rows shares its neighbours' metric.
+  const auto expected = [n](std::size_t i) { return static_cast<std::uint8_t>(i < n ? RowForm::isotropic : RowForm::shared_metric); };
+  std::size_t as_expected = 0;
+  for (std::size_t i = 0; i < 2 * n; ++i) as_expected += family[i] == expected(i);
+  CHECK(as_expected == 2 * n);
   // The same deformation of the first box in both worlds (and of the second box, which must not matter).
   for (World* w : {&one, &two}) {
     auto& s = w->state_mutable();
@@ -139,4 +144,69 @@ TEST_CASE("an isotropic body beside an anisotropic one runs the isotropic bond f
   double moved = 0.0;
   for (std::size_t i = 0; i < n; ++i) moved = std::max(moved, (one.positions()[i] - one.state().particles.reference_position[i]).norm());
   CHECK(moved > 1e-4);  // it did deform and move
+}
+
+TEST_CASE("an anisotropic row whose neighbours share its metric takes one weighted length per bond: the same bits") {
+  // One body of one anisotropic material (G = 2 along a tilted axis), yielding and breaking: every
+  // row is marked RowForm::shared_metric, and its bond kernels compute ℓ_ij once for both sides. The
+  // same world with every row forced to the general anisotropic form (ℓ_ij and ℓ_ji each from its own
+  // particle's metric) must give the same positions, breaks and plastic extensions, bit for bit, since
+  // the two lengths are the same expression of the same numbers.
+  auto sc = test::box_scene(Vec3(0.06, 0.04, 0.04), 0.01, 3.3e5, 2.0e5);
+  sc.contact.mode = scene::Contact::Mode::off;
+  const Vec3 a = Vec3(1.0, 1.0, 0.5).normalized();
+  sc.materials[0].anisotropy = 2.0 * a * a.transpose() + (Mat3::Identity() - a * a.transpose());
+  sc.materials[0].critical_stretch = 0.01;
+  sc.materials[0].yield_energy = 1e3;
+  sc.materials[0].plastic_cap_ratio = 0.2;
+  World shared(sc), general(sc);
+  REQUIRE(shared.state().any_anisotropic);
+  REQUIRE(shared.state().any_plastic);
+  const std::size_t n = shared.state().particles.count();
+  std::size_t marked = 0;
+  for (std::uint8_t f : shared.state().model.anisotropic_family) marked += f == static_cast<std::uint8_t>(RowForm::shared_metric);
+  CHECK(marked == n);
+  for (auto& f : general.state_mutable().model.anisotropic_family) f = static_cast<std::uint8_t>(RowForm::anisotropic);
+  for (World* w : {&shared, &general}) {
+    auto& s = w->state_mutable();
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3& x = s.particles.reference_position[i];
+      s.particles.position[i] = x + 1e-3 * Vec3(std::sin(90.0 * x.y()), std::sin(70.0 * x.z()), std::sin(110.0 * x.x()));
+    }
+  }
+  shared.step(30);
+  general.step(30);
+  std::size_t same = 0;
+  for (std::size_t i = 0; i < n; ++i) same += shared.positions()[i] == general.positions()[i];
+  CHECK(same == n);
+  const auto& bs = shared.state().bonds;
+  const auto& bg = general.state().bonds;
+  CHECK(bs.alive == bg.alive);
+  CHECK(bs.plastic_extension == bg.plastic_extension);
+  // Both did what the comparison needs: bonds broke and bonds yielded.
+  std::size_t broken = 0, yielded = 0;
+  for (std::size_t k = 0; k < bs.alive.size(); ++k) broken += bs.alive[k] == 0, yielded += bs.plastic_extension[k] != 0.0f;
+  MESSAGE("bonds " << bs.alive.size() << ", broken " << broken << ", yielded " << yielded);
+  CHECK(broken > 0);
+  CHECK(yielded > 0);
+
+  // A row with one neighbour of another metric (here: the half x < 0 of the box given a different G,
+  // as two anisotropic materials would meet) takes the general form; the rest keep the shared one.
+  WorldState& w = general.state_mutable();
+  for (std::size_t i = 0; i < n; ++i)
+    if (w.particles.reference_position[i].x() < 0.0) w.model.anisotropy_metric[i].xx *= 1.5;
+  systems::mark_anisotropic_families(w);
+  std::size_t general_rows = 0, as_expected = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    bool crosses = false;
+    for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k)
+      crosses = crosses || (w.particles.reference_position[w.bonds.neighbor[k]].x() < 0.0) != (w.particles.reference_position[i].x() < 0.0);
+    const RowForm expected = crosses ? RowForm::anisotropic : RowForm::shared_metric;
+    general_rows += crosses;
+    as_expected += w.model.anisotropic_family[i] == static_cast<std::uint8_t>(expected);
+  }
+  MESSAGE("rows across the metric boundary: " << general_rows << " of " << n);
+  CHECK(general_rows > 0);
+  CHECK(general_rows < n);
+  CHECK(as_expected == n);
 }

@@ -4,11 +4,11 @@
 # velocity condition, gravity, a surface traction, and an anisotropic block the plate's pieces strike,
 # so isotropic and anisotropic rows of the bond kernels meet) in one process, then under mpirun at 1,
 # 2, 3 and 4 ranks of 1 thread, at 2 ranks of 2 threads and at 3 ranks over TCP (loopback), and
-# compares every output file byte for byte: particle frames (vtu, ply), split-mesh surfaces (obj, ply, vtp), tet
-# meshes (vtu), the Blender cache (animation.obj/.pc2), glTF, dust, pieces.csv, mesh.json and
-# projectiles.csv (all but summary.json and checkpoint.bin). It first checks that the reference run
-# yields, breaks into pieces, is struck by the ball and lifted by a rising box collider (which reads
-# the surface frames computed from ghosts), so the comparison covers all four. A run of 3 ranks
+# compares every output file byte for byte: particle frames (vtu, ply), split-mesh surfaces (obj,
+# ply, vtp), tet meshes (vtu), the Blender cache (animation.obj/.pc2), glTF, dust, pieces.csv,
+# mesh.json and projectiles.csv (all but summary.json and checkpoint.bin). It first checks that the
+# reference run yields, breaks into pieces, is struck by the ball and lifted by a rising box collider
+# (which reads the surface frames computed from ghosts), so the comparison covers all four. A run of 3 ranks
 # re-splits its work every 20 steps (rebalance_drift 0). Then a run of 2 ranks stopped at frame 7 is
 # resumed from its checkpoint by 3 ranks, and by one process: the same bytes. --bind-to none: Open MPI
 # otherwise pins each rank to one core, and oneTBB would then run 2 threads on it as 1.
