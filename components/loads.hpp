@@ -30,6 +30,24 @@ struct SurfacePatches {
                                             // (the colliders' contact geometry); zero where radius is 0
 };
 
+// The faces of each particle's tet that a crack may open, for the colliders (systems/colliders.cpp,
+// systems/README.md §8.3): a body broken on the ground rests on its crack faces as it does on its
+// original surface. Per particle (= tet), only in peridynamic worlds with colliders that can break
+// (empty otherwise); built at set-up (engine/setup/loads.cpp, resolve_openable_faces).
+//   corner[i][c]:    the tet's corner c − the particle's reference position, m (float: contact
+//                    geometry only, placed to ~1e-7 of a tet size); face k is the triangle opposite k.
+//   bond_slot[i][k]: where, in particle i's bond row, its bond to the tet across face k is (bonds.neighbor
+//                    [offsets[i] + slot]): face k is an open crack face while that bond is broken.
+//                    kBoundary for an original boundary face (SurfacePatches has it) or a row too long
+//                    to index; kAlwaysOpen for a face-adjacent tet without a bond (an initial crack).
+// Rows are never reordered, only sliced whole (distributed local worlds), so a slot stays valid.
+struct OpenableFaces {
+  static constexpr std::uint16_t kBoundary = 0xFFFF;
+  static constexpr std::uint16_t kAlwaysOpen = 0xFFFE;
+  std::vector<std::array<Eigen::Vector3f, 4>> corner;
+  std::vector<std::array<std::uint16_t, 4>> bond_slot;
+};
+
 // The scene's loads, each with the particles it acts on (sorted) and, for surface loads, the
 // patches of each of those particles it acts on (CSR over `particles`).
 struct LoadSet {

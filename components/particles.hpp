@@ -121,6 +121,10 @@ struct ParticleState {
   // computed or the family does not fit. The colliders place each boundary-face corner X at
   // y + F·(X − x) (surface_frames.cpp). Float: it only places contact geometry, to ~1e-7 of a tet size.
   std::vector<Eigen::Matrix3f> surface_frame;
+  // Per particle (with WorldState::openable_faces): bit k set when face k of its tet is an open crack
+  // face (its bond broke, OpenableFaces), from the bonds at the end of the last step; written with the
+  // frame (surface_frames.cpp), read by the colliders, which meet those faces too.
+  std::vector<std::uint8_t> open_faces;
   // Per particle (only in worlds with colliders): written by the colliders every step, read by kick_end
   // in the same step.
   std::vector<ColliderContact> collider_contact;

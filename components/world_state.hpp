@@ -102,6 +102,7 @@ struct WorldState {
   std::vector<BodyInfo> bodies;
   BoundaryConditionSet boundary;
   SurfacePatches surface;         // boundary faces of the reference mesh (surface loads, projectiles)
+  OpenableFaces openable_faces;   // faces a crack may open, per particle (colliders)
   LoadSet loads;                  // external loads beyond gravity (systems/external_loads.cpp)
   DerivedFields derived;
   ContactState contact;           // particle–particle contact (systems/contact.cpp)
@@ -165,6 +166,7 @@ void for_each_array(W& w, F&& f) {
   f(K::particle, "state.broken_bonds", s.broken_bonds);
   f(K::particle, "state.bond_end", s.bond_end);
   f(K::particle, "state.surface_frame", s.surface_frame);
+  f(K::particle, "state.open_faces", s.open_faces);
   f(K::particle, "state.collider_contact", s.collider_contact);
   auto& b = w.bonds;
   f(K::particle, "bonds.offsets", b.offsets);
@@ -249,6 +251,8 @@ void for_each_array(W& w, F&& f) {
   f(K::other, "surface.offset", w.surface.offset);
   f(K::other, "surface.radius", w.surface.radius);
   f(K::other, "surface.corner", w.surface.corner);
+  f(K::particle, "openable_faces.corner", w.openable_faces.corner);
+  f(K::particle, "openable_faces.bond_slot", w.openable_faces.bond_slot);
   for (auto& list : w.loads.particles) f(K::other, "loads.particles", list);
   for (auto& list : w.loads.patch_offsets) f(K::other, "loads.patch_offsets", list);
   for (auto& list : w.loads.patches) f(K::other, "loads.patches", list);

@@ -132,6 +132,34 @@ inline Penetration face_penetration(const PlacedCollider& pc, const Vec3& x, con
   return triangle_penetration(pc, placed);
 }
 
+// The crack faces a particle meets colliders with (WorldState::openable_faces): bit k set when face k
+// of its tet is open, i.e. the bond to the tet across it is broken (or never was: an initial crack).
+// From the bonds as they are; the surface frames store it at the end of each step for the colliders.
+inline std::uint8_t open_crack_faces(const OpenableFaces& of, const Bonds& b, std::size_t i) {
+  std::uint8_t open = 0;
+  for (int k = 0; k < 4; ++k) {
+    const std::uint16_t slot = of.bond_slot[i][static_cast<std::size_t>(k)];
+    if (slot == OpenableFaces::kBoundary) continue;
+    if (slot == OpenableFaces::kAlwaysOpen || !b.alive[b.offsets[i] + slot]) open = static_cast<std::uint8_t>(open | (1u << k));
+  }
+  return open;
+}
+// Face k of particle i's tet, opposite corner k, as corner offsets from the particle's reference
+// position (as SurfacePatches::corner), and its outward normal in the reference orientation (not unit).
+struct TetFace {
+  std::array<Vec3, 3> corner;
+  Vec3 normal;
+};
+inline TetFace openable_face(const OpenableFaces& of, std::size_t i, int k) {
+  TetFace f;
+  std::size_t m = 0;
+  for (std::size_t c = 0; c < 4; ++c)
+    if (c != static_cast<std::size_t>(k)) f.corner[m++] = of.corner[i][c].cast<double>();
+  f.normal = (f.corner[1] - f.corner[0]).cross(f.corner[2] - f.corner[0]);
+  if (f.normal.dot(of.corner[i][static_cast<std::size_t>(k)].cast<double>() - f.corner[0]) > 0.0) f.normal = -f.normal;
+  return f;
+}
+
 // A point: the triangle with three equal corners.
 inline Penetration point_penetration(const PlacedCollider& pc, const Vec3& y) { return triangle_penetration(pc, {y, y, y}); }
 

@@ -12,10 +12,13 @@
 // with the particle only). The deepest of them decides the push (collider_shapes.hpp). So a body
 // rests on the ground with its mesh surface, the surface an artist renders, rather than with its
 // particle centres, which sit a resolution-dependent fraction of a cell inside it (a 12-cell ball
-// dropped on a plane sank 1.1 cm, 0.45 cell, into it). Where a particle has no original face turned
-// toward the collider (seen along the normal at its centre: a tet a crack exposed, debris resting on a
-// crack face), its sphere of reach (half the contact distance) takes part instead: in the bunny
-// preview broken pieces lay up to 7 cm (0.6 cell) deep in the ground on their centres.
+// dropped on a plane sank 1.1 cm, 0.45 cell, into it). The faces of its tet that a crack opened
+// (ParticleState::open_faces, from the bonds at the end of the last step; WorldState::openable_faces)
+// are met the same way, so a piece lying on its fracture surface rests on it. Where a particle has
+// no face, original or cracked, turned toward the collider (seen along the normal at its centre: a tet
+// exposed where its own faces are still bonded), its sphere of reach (half the contact distance)
+// takes part instead: in the bunny preview broken pieces lay up to 7 cm (0.6 cell) deep in the ground
+// on their centres, 2.6 cm with the spheres of reach alone.
 // Depth a particle already had when the step began (before this step's drift) is not this step's
 // motion but a change of the contact geometry: a frame refitted, or a sphere of reach taking over
 // where a crack exposed a tet. It is taken out at no more than kDepenetrationSpeed (0.5 m/s), as game
@@ -67,6 +70,8 @@ SystemDecl collider_system(WorldState& w) {
             auto& p = w.particles;
             const SurfacePatches& sf = w.surface;
             const auto& frames = w.state.surface_frame;
+            const auto& open_faces = w.state.open_faces;
+            const OpenableFaces& openable = w.openable_faces;
             auto& held = w.state.collider_contact;
             parallel_for_each(p.count(), [&](std::size_t i) {
               held[i] = ColliderContact{};
@@ -76,7 +81,8 @@ SystemDecl collider_system(WorldState& w) {
               // i's boundary faces, placed by its frame (none for interior particles and FEM worlds).
               const std::uint32_t face_begin = frames.empty() ? 0 : sf.offsets[i];
               const std::uint32_t face_end = frames.empty() ? 0 : sf.offsets[i + 1];
-              const Mat3 F = face_end > face_begin ? Mat3(frames[i].cast<double>()) : Mat3::Zero();
+              const std::uint8_t open = open_faces.empty() ? 0 : open_faces[i];  // its open crack faces
+              const Mat3 F = face_end > face_begin || open ? Mat3(frames[i].cast<double>()) : Mat3::Zero();
               const bool framed = !F.isZero(0.0);
               const Mat3 normal_map = framed ? Mat3(F.inverse().transpose()) : Mat3::Identity();
               // Peridynamic worlds: the particle's sphere of reach (the projectiles' and the contact's,
@@ -95,6 +101,13 @@ SystemDecl collider_system(WorldState& w) {
                   // A face turned toward the collider is the surface there (then no sphere of reach).
                   facing = facing || (normal_map * sf.normal[q]).dot(at_centre.normal) < 0.0;
                   const Penetration pen = face_penetration(pc, x, framed ? &F : nullptr, sf.corner[q]);
+                  if (pen.depth > deepest.depth) deepest = pen, centre = false;
+                }
+                for (int f = 0; f < 4; ++f) {
+                  if (!(open >> f & 1u)) continue;
+                  const TetFace face = openable_face(openable, i, static_cast<int>(f));
+                  facing = facing || (normal_map * face.normal).dot(at_centre.normal) < 0.0;
+                  const Penetration pen = face_penetration(pc, x, framed ? &F : nullptr, face.corner);
                   if (pen.depth > deepest.depth) deepest = pen, centre = false;
                 }
                 if (reach > 0.0 && !facing) {

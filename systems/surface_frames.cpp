@@ -4,8 +4,12 @@
 // turns or stretches, each such particle near a collider keeps the deformation of its family,
 //   K = Σ ω ξ⊗ξ V_j,  N = Σ ω η⊗ξ V_j  (alive bonds, family_sums),  F = N K⁻¹,
 // the fit mesh_vertices.cpp places the rendered surface with: F itself when the family fits and F is
-// well conditioned, its rotation when F is badly stretched or inverted, and zero (the face then only
-// moves with the particle) when the family does not fit (fewer than 4 alive bonds or K singular).
+// well conditioned, its rotation when F is badly stretched or inverted, and, when the family does not
+// fit (fewer than 4 alive bonds or K singular), the rotation the rendered mesh holds for the particle
+// (EmbeddedMesh::held_deformation, mesh_rotations.cpp, as of the last step), or zero (the face then
+// only moves with the particle) where it holds none. Before the held rotation took part, debris of one
+// or a few tets met the ground with its faces in their reference orientation while the renderer drew
+// them turned, and sank up to 2 cm into it (the bunny preview's last frame).
 // The colliders of the next step place each face corner X at y + F·(X − x).
 // Why at the end of the step, not in the colliders: the colliders move particles while they run, so
 // a neighbour's position read there would race; and in a distributed run the ghosts' positions are
@@ -20,11 +24,15 @@
 // and a rounder ball spun up in place). A held frame is contact geometry fixed to the particle while
 // it touches, as a centre is; a piece that turns or stretches while touching is refitted past the
 // tolerance, and every piece is refitted as it comes in.
+// Crack faces (WorldState::openable_faces, in a breakable world): the faces of a particle's tet whose
+// bond to the tet across broke are written to ParticleState::open_faces here, from the bonds at the
+// end of the step, and count as faces below (so a piece lying on a crack face is framed too).
 // Which particles: those with a face whose farthest corner could reach a collider
 // (√12·|X − x|, ‖F‖ ≤ √12 for a conditioned F) plus one step of the particle's and the
 // collider's motion (a margin of 2×); the others get zero and cost nothing but the distance test.
-// Reads: time, position, velocity, acceleration, bond_alive, surface_frames (the held frame).
-// Writes: surface_frames.
+// Reads: time, position, velocity, acceleration, bond_alive, surface_frames (the held frame), mesh
+// (the held rotations, written later in the step by mesh_rotations: last step's).
+// Writes: surface_frames (the frames and the open crack faces).
 // Parallel over particles, each frame written by its own particle's task: deterministic.
 #include <cmath>
 
@@ -57,15 +65,25 @@ void update_surface_frames(WorldState& w) {
   std::vector<PlacedCollider> placed;  // a handful; outside the particle loop
   placed.reserve(w.settings.colliders.size());
   for (const auto& c : w.settings.colliders) placed.push_back(place_collider(c, t));
+  const OpenableFaces& openable = w.openable_faces;
+  const auto& held_rotation = w.embedded.held_deformation;  // the rendered mesh's frame (mesh_rotations.cpp)
+  const auto& tracked = w.embedded.held_tracked;
+  auto& open_faces = w.state.open_faces;
   parallel_for_each(p.count(), [&](std::size_t i) {
     Eigen::Matrix3f& out = frames[i];
     const Eigen::Matrix3f held = out;
     out.setZero();
+    if (!open_faces.empty()) open_faces[i] = 0;
     if (!w.owns(i)) return;  // a ghost: its owner computes its frame
+    // The crack faces open now (their bonds broke by the end of this step), met like boundary faces.
+    const std::uint8_t open = open_faces.empty() ? 0 : open_crack_faces(openable, w.bonds, i);
+    if (!open_faces.empty()) open_faces[i] = open;
     double reach = -1.0;
     for (std::uint32_t q = sf.offsets[i]; q < sf.offsets[i + 1]; ++q)
       if (sf.radius[q] > 0.0)
         for (const Vec3& corner : sf.corner[q]) reach = std::max(reach, kMaxStretch * corner.norm());
+    if (open)
+      for (const auto& corner : openable.corner[i]) reach = std::max(reach, kMaxStretch * double(corner.norm()));
     if (reach < 0.0) return;  // no faces (or only load shares)
     const double motion = dt * (p.velocity[i].norm() + dt * p.acceleration[i].norm());
     bool near = false, touching = false;
@@ -77,11 +95,16 @@ void update_surface_frames(WorldState& w) {
       const double collider_motion = dt * (c.velocity.norm() + c.angular_velocity.norm() * arm);
       const double margin = 2.0 * (motion + collider_motion);
       if (collider_distance(pc, p.position[i]) < reach + margin) near = true;
-      if (was_held && near && !touching)
+      if (was_held && near && !touching) {
         for (std::uint32_t q = sf.offsets[i]; q < sf.offsets[i + 1]; ++q) {
           if (!(sf.radius[q] > 0.0)) continue;
           if (face_penetration(pc, p.position[i], &F_held, sf.corner[q]).depth > -(margin + 0.02 * reach)) touching = true;
         }
+        for (int k = 0; k < 4; ++k)
+          if (open >> k & 1u)
+            if (face_penetration(pc, p.position[i], &F_held, openable_face(openable, i, k).corner).depth > -(margin + 0.02 * reach))
+              touching = true;
+      }
     }
     if (!near) return;
     Mat3 K, N, F;
@@ -89,13 +112,15 @@ void update_surface_frames(WorldState& w) {
     const bool fitted = fitted_deformation(K, N, alive, F);
     if (touching && (!fitted || (F - F_held).norm() <= kHoldTolerance)) out = held;
     else if (fitted) out = F.cast<float>();
+    else if (tracked.size() == p.count() && held_rotation.size() == p.count() && tracked[i])
+      out = held_rotation[i].cast<float>();
   }, 1024);
 }
 
 SystemDecl surface_frame_system(WorldState& w) {
   return {"surface_frames",
           {Component::time, Component::position, Component::velocity, Component::acceleration, Component::bond_alive,
-           Component::surface_frames},
+           Component::surface_frames, Component::mesh},
           {Component::surface_frames},
           [&w] { update_surface_frames(w); }};
 }

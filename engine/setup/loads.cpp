@@ -9,6 +9,7 @@
 
 #include "geometry/geometry.hpp"
 #include "setup/world_setup.hpp"
+#include "systems/parallel.hpp"
 #include "systems/region.hpp"
 
 namespace perifx::setup {
@@ -191,6 +192,33 @@ void resolve_loads(const std::vector<scene::Load>& loads, const std::vector<std:
     }
     if (!list.empty()) offsets.push_back(static_cast<std::uint32_t>(set.patches[l].size()));
   }
+}
+
+void resolve_openable_faces(const std::vector<std::array<std::int32_t, 4>>& face_neighbors, WorldState& w) {
+  OpenableFaces& of = w.openable_faces;
+  of = {};
+  const bool peridynamic = w.settings.solver == scene::Solver::peridynamics;
+  if (!peridynamic || !w.any_fracture || w.settings.colliders.empty()) return;
+  const auto& p = w.particles;
+  const auto& b = w.bonds;
+  const std::size_t n = p.count();
+  of.corner.resize(n);
+  of.bond_slot.resize(n);
+  parallel_for_each(n, [&](std::size_t t) {
+    for (std::size_t c = 0; c < 4; ++c) of.corner[t][c] = (w.mesh.vertices[w.mesh.tets[t][c]] - p.reference_position[t]).cast<float>();
+    for (std::size_t k = 0; k < 4; ++k) {
+      const std::int32_t u = face_neighbors[t][k];
+      std::uint16_t slot = OpenableFaces::kBoundary;
+      if (u >= 0) {
+        const auto first = b.neighbor.begin() + b.offsets[t], last = b.neighbor.begin() + b.offsets[t + 1];
+        const auto at = std::lower_bound(first, last, static_cast<std::uint32_t>(u));  // rows are sorted
+        const auto in_row = static_cast<std::size_t>(at - first);
+        if (at == last || *at != static_cast<std::uint32_t>(u)) slot = OpenableFaces::kAlwaysOpen;
+        else if (in_row < OpenableFaces::kAlwaysOpen) slot = static_cast<std::uint16_t>(in_row);
+      }
+      of.bond_slot[t][k] = slot;
+    }
+  }, 4096);
 }
 
 }  // namespace perifx::setup

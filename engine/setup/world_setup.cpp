@@ -136,6 +136,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     systems::mark_anisotropic_families(w);
     phase("families");
     systems::setup_embedded_mesh(w, adjacency);  // after the bonds: a face pair without one starts cracked
+    resolve_openable_faces(adjacency, w);         // the same rule for the colliders' crack faces
     phase("embedded mesh");
     systems::compute_model_constants(w);
     systems::apply_strength_field(w);
@@ -165,6 +166,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     // The colliders meet the faces placed by the surface frames (systems/surface_frames.cpp).
     if (!w.settings.colliders.empty() && !w.surface.radius.empty()) {
       systems::assign_huge_pages(w.state.surface_frame, p.count(), Eigen::Matrix3f(Eigen::Matrix3f::Zero()));
+      if (!w.openable_faces.corner.empty()) systems::assign_huge_pages(w.state.open_faces, p.count(), std::uint8_t{0});
       systems::update_surface_frames(w);
     }
   });

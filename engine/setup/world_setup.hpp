@@ -42,6 +42,11 @@ void resolve_boundary_conditions(const std::vector<scene::BoundaryCondition>& co
 void resolve_loads(const std::vector<scene::Load>& loads, const std::vector<std::array<std::int32_t, 4>>& face_neighbors,
                    WorldState& w);
 
+// loads.cpp: w.openable_faces (the tet faces a crack may open, which the colliders meet) in a
+// peridynamic world with colliders and a breakable material; empty otherwise. After the bonds are
+// final (initial cracks removed).
+void resolve_openable_faces(const std::vector<std::array<std::int32_t, 4>>& face_neighbors, WorldState& w);
+
 // stable_time_step.cpp: largest stable velocity-Verlet step 2/ω_max, ω_max² the largest eigenvalue
 // of M⁻¹K for the linearized elastic force at the reference configuration.
 double estimate_stable_time_step(const WorldState& world);

@@ -229,6 +229,73 @@ TEST_CASE("a particle with no face toward the ground meets it with its sphere of
   }
 }
 
+TEST_CASE("a particle meets a collider with the crack faces of its tet once their bonds broke") {
+  // An interior tet of a breakable body has no original face; when the bond to the tet across one of
+  // its faces breaks, that face is fracture surface (WorldState::openable_faces), and a piece lying on
+  // it must rest on it, as on an original face, not on the particle's sphere of reach. The body is
+  // translated rigidly (so each frame F is the identity to float rounding) to put one interior particle
+  // a quarter of its reach above the plane, with its downward face cracked; one collider pass must
+  // put that face's lowest corner exactly on the plane. With the bond intact the particle is lifted to
+  // its sphere of reach, as before.
+  auto sc = test::box_scene(Vec3(0.06, 0.06, 0.06), 0.01, 8e6, 4.8e6);
+  sc.materials[0].critical_stretch = 0.05;  // breakable, so the openable faces exist; nothing is stepped
+  scene::Collider ground;
+  sc.colliders.push_back(ground);
+  World world(sc);
+  WorldState& w = world.state_mutable();
+  const OpenableFaces& of = w.openable_faces;
+  REQUIRE(of.corner.size() == w.particles.count());
+  REQUIRE(w.state.open_faces.size() == w.particles.count());
+  std::size_t interior = w.particles.count();
+  const Vec3 middle = [&] {
+    Vec3 sum = Vec3::Zero();
+    for (const Vec3& x : w.particles.reference_position) sum += x;
+    return Vec3(sum / double(w.particles.count()));
+  }();
+  for (std::size_t i = 0; i < w.particles.count() && interior == w.particles.count(); ++i)
+    if (w.surface.offsets[i] == w.surface.offsets[i + 1] && (w.particles.reference_position[i] - middle).norm() < 0.01)
+      interior = i;
+  REQUIRE(interior < w.particles.count());
+  int down = 0;  // the face whose outward normal points most nearly down
+  for (int k = 1; k < 4; ++k)
+    if (systems::openable_face(of, interior, k).normal.normalized().y() < systems::openable_face(of, interior, down).normal.normalized().y())
+      down = k;
+  const std::uint16_t slot = of.bond_slot[interior][static_cast<std::size_t>(down)];
+  REQUIRE(slot < OpenableFaces::kAlwaysOpen);
+  const std::size_t bond = w.bonds.offsets[interior] + slot;
+  const double reach = 0.5 * w.contact.distance_factor * w.contact.size[interior];
+  const Vec3 shift(0.0, 0.25 * reach - w.particles.reference_position[interior].y(), 0.0);
+  const auto place = [&](bool cracked) {
+    w.bonds.alive[bond] = cracked ? 0 : 1;
+    for (std::size_t i = 0; i < w.particles.count(); ++i) {
+      w.particles.position[i] = w.particles.reference_position[i] + shift;
+      w.particles.velocity[i] = Vec3(0.0, -0.01 / w.clock.dt, 0.0);  // arriving in this step, from 1 cm up
+    }
+    systems::update_surface_frames(w);
+  };
+  SUBCASE("cracked: the crack face rests on the plane") {
+    place(true);
+    CHECK(w.state.open_faces[interior] == (1u << down));
+    const Mat3 F = w.state.surface_frame[interior].cast<double>();
+    CHECK((F - Mat3::Identity()).norm() < 1e-6);
+    systems::collider_system(w).run();
+    double lowest = kInfinity;  // the face's lowest corner, placed as the colliders place it
+    for (const Vec3& c : systems::openable_face(of, interior, down).corner)
+      lowest = std::min(lowest, w.particles.position[interior].y() + (F * c).y());
+    MESSAGE("interior particle " << interior << ": reach " << reach << " m, centre lifted to "
+                                 << w.particles.position[interior].y() << " m, its crack face's lowest corner at " << lowest << " m");
+    CHECK(std::abs(lowest) < 1e-12);
+    CHECK(w.particles.position[interior].y() > 1.5 * reach);  // the face reaches deeper than the sphere
+    CHECK(w.particles.velocity[interior].y() == 0.0);
+  }
+  SUBCASE("intact: the sphere of reach, as before") {
+    place(false);
+    CHECK(w.state.open_faces[interior] == 0);
+    systems::collider_system(w).run();
+    CHECK(w.particles.position[interior].y() == doctest::Approx(reach).epsilon(1e-12));
+  }
+}
+
 TEST_CASE("a glass plate pressed into the ground by a ball does not shatter, and the ball gains no energy") {
   // The fig15 preview (a 1 × 0.1 × 1 m glass plate, two cells thick, on the ground; a 260 kg ball at
   // 5 m/s), 3 ms. The plane and the plate can only take energy from the ball: it rebounds at most at

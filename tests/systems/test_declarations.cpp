@@ -39,6 +39,7 @@ Component owner_of(const std::string& array) {
       {"state.contact_force", Component::contact_force},
       {"state.bond_end", Component::bond_end},
       {"state.surface_frame", Component::surface_frames},
+      {"state.open_faces", Component::surface_frames},
       {"state.collider_contact", Component::collider_contact},
   };
   if (auto it = owners.find(array); it != owners.end()) return it->second;
