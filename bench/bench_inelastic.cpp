@@ -5,18 +5,25 @@
 // (s_c finite but far above the imposed stretch, so the check runs on every bond and nothing breaks:
 // the topology, and so the work per step, stays fixed while timing).
 #include <algorithm>
+#include <tuple>
 
 #include "bench_support.hpp"
 
 namespace perifx::bench {
 namespace {
 
-World& inelastic_world(std::int64_t particles, int threads) {
-  static std::map<std::pair<std::int64_t, int>, std::unique_ptr<World>> worlds;
-  auto& slot = worlds[{particles, threads}];
+// The inelastic body, cached per size and thread count; `anisotropic` gives it a material with G = 2
+// along a tilted axis (Eq 17), whose rows take the anisotropic form of the bond kernels.
+World& inelastic_world(std::int64_t particles, int threads, bool anisotropic = false) {
+  static std::map<std::tuple<std::int64_t, int, bool>, std::unique_ptr<World>> worlds;
+  auto& slot = worlds[{particles, threads, anisotropic}];
   if (!slot) {
     scene::Scene s = box_scene(cubes_for(particles), threads, bench_dt());
     make_inelastic(s);
+    if (anisotropic) {
+      const Vec3 a = Vec3(1.0, 1.0, 0.5).normalized();
+      s.materials[0].anisotropy = 2.0 * a * a.transpose() + (Mat3::Identity() - a * a.transpose());
+    }
     slot = std::make_unique<World>(s);
     deform(*slot, threads);
   }
@@ -40,9 +47,7 @@ BENCHMARK(BM_FullStepInelastic)->Apply(sizes_and_threads);
 
 // The fused bond pass alone (plasticity both sides, force, fracture test, damage: bond_pass.cpp) on
 // the inelastic body's current positions, one pass over all directed bonds per iteration.
-void BM_BondPass(benchmark::State& state) {
-  const int threads = static_cast<int>(state.range(1));
-  World& world = inelastic_world(state.range(0), threads);
+void time_bond_pass(benchmark::State& state, World& world, int threads) {
   WorldState& w = world.state_mutable();
   auto& a = arena(threads);
   for (auto _ : state) {
@@ -53,43 +58,25 @@ void BM_BondPass(benchmark::State& state) {
   if (!all_finite(w.state.internal_force)) state.SkipWithError("non-finite internal force");
   if (world.alive_bond_count() != world.bond_count()) state.SkipWithError("bonds broke: the timed work changed");
   report(state, world, threads, static_cast<double>(world.bond_count()));
+}
+void BM_BondPass(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(1));
+  time_bond_pass(state, inelastic_world(state.range(0), threads), threads);
 }
 BENCHMARK(BM_BondPass)->Apply(sizes_and_threads);
 
-// The fused bond pass on the inelastic body made of an anisotropic material (G = 2 along a tilted
-// axis, Eq 17), whose rows take the anisotropic form of the bond kernels: the cost of anisotropy beside
-// BM_BondPass. form:1 is the shipped marking (one material, so every row is RowForm::shared_metric:
-// one weighted length per bond); form:0 forces the general form (ℓ_ij and ℓ_ji each from its
-// particle's metric, the far metric gathered), which a row at a boundary between two anisotropic
-// materials takes. Both give the same bits (test_anisotropy.cpp).
-World& anisotropic_world(std::int64_t particles, int threads) {
-  static std::map<std::pair<std::int64_t, int>, std::unique_ptr<World>> worlds;
-  auto& slot = worlds[{particles, threads}];
-  if (!slot) {
-    scene::Scene s = box_scene(cubes_for(particles), threads, bench_dt());
-    make_inelastic(s);
-    const Vec3 a = Vec3(1.0, 1.0, 0.5).normalized();
-    s.materials[0].anisotropy = 2.0 * a * a.transpose() + (Mat3::Identity() - a * a.transpose());
-    slot = std::make_unique<World>(s);
-    deform(*slot, threads);
-  }
-  return *slot;
-}
+// The same on the anisotropic body: the cost of anisotropy beside BM_BondPass. form:1 is the shipped
+// marking (one material, so every row is RowForm::shared_metric: one weighted length per bond);
+// form:0 forces the general form (ℓ_ij and ℓ_ji each from its particle's metric, the far metric
+// gathered), which a row at a boundary between two anisotropic materials takes. Both give the same
+// bits (test_anisotropy.cpp).
 void BM_BondPassAnisotropic(benchmark::State& state) {
   const int threads = static_cast<int>(state.range(1));
-  World& world = anisotropic_world(state.range(0), threads);
-  WorldState& w = world.state_mutable();
+  World& world = inelastic_world(state.range(0), threads, true);
+  auto& family = world.state_mutable().model.anisotropic_family;
   const auto form = state.range(2) ? RowForm::shared_metric : RowForm::anisotropic;
-  std::fill(w.model.anisotropic_family.begin(), w.model.anisotropic_family.end(), static_cast<std::uint8_t>(form));
-  auto& a = arena(threads);
-  for (auto _ : state) {
-    a.execute([&] { systems::run_bond_pass(w, w.particles.position, w.state.internal_force); });
-    benchmark::DoNotOptimize(w.state.internal_force.data());
-    benchmark::ClobberMemory();
-  }
-  if (!all_finite(w.state.internal_force)) state.SkipWithError("non-finite internal force");
-  if (world.alive_bond_count() != world.bond_count()) state.SkipWithError("bonds broke: the timed work changed");
-  report(state, world, threads, static_cast<double>(world.bond_count()));
+  std::fill(family.begin(), family.end(), static_cast<std::uint8_t>(form));
+  time_bond_pass(state, world, threads);
 }
 BENCHMARK(BM_BondPassAnisotropic)->Apply([](benchmark::internal::Benchmark* b) {
   b->ArgNames({"particles", "threads", "form"});

@@ -15,6 +15,27 @@
 
 using namespace perifx;
 
+namespace {
+
+// Displaces every particle of a world from its reference position by amplitude ·
+// (sin(k_y y), sin(k_z z), sin(k_x x)), k = wavenumbers (x, y, z), 1/m: a smooth, non-affine field.
+void wave(World& world, double amplitude, const Vec3& k) {
+  auto& p = world.state_mutable().particles;
+  for (std::size_t i = 0; i < p.count(); ++i) {
+    const Vec3& x = p.reference_position[i];
+    p.position[i] = x + amplitude * Vec3(std::sin(k.y() * x.y()), std::sin(k.z() * x.z()), std::sin(k.x() * x.x()));
+  }
+}
+
+// How many of the first n particles have the same position, bit for bit, in both worlds.
+std::size_t same_positions(const World& a, const World& b, std::size_t n) {
+  std::size_t same = 0;
+  for (std::size_t i = 0; i < n; ++i) same += a.positions()[i] == b.positions()[i];
+  return same;
+}
+
+}  // namespace
+
 TEST_CASE("anisotropic material (G = diag(2,1,1)) is stiffer across x than along it, by the weights' ratio") {
   const Vec3 size(0.08, 0.08, 0.08);
   auto sc = test::box_scene(size, 0.01, 3.3e5, 2.0e5);
@@ -129,18 +150,10 @@ TEST_CASE("an isotropic body beside an anisotropic one runs the isotropic bond f
   for (std::size_t i = 0; i < 2 * n; ++i) as_expected += family[i] == expected(i);
   CHECK(as_expected == 2 * n);
   // The same deformation of the first box in both worlds (and of the second box, which must not matter).
-  for (World* w : {&one, &two}) {
-    auto& s = w->state_mutable();
-    for (std::size_t i = 0; i < s.particles.count(); ++i) {
-      const Vec3& x = s.particles.reference_position[i];
-      s.particles.position[i] = x + 2e-3 * Vec3(std::sin(40.0 * x.y()), std::sin(30.0 * x.z()), std::sin(50.0 * x.x()));
-    }
-  }
+  for (World* w : {&one, &two}) wave(*w, 2e-3, Vec3(50.0, 40.0, 30.0));
   one.step(40);
   two.step(40);
-  std::size_t same = 0;
-  for (std::size_t i = 0; i < n; ++i) same += one.positions()[i] == two.positions()[i];
-  CHECK(same == n);
+  CHECK(same_positions(one, two, n) == n);
   double moved = 0.0;
   for (std::size_t i = 0; i < n; ++i) moved = std::max(moved, (one.positions()[i] - one.state().particles.reference_position[i]).norm());
   CHECK(moved > 1e-4);  // it did deform and move
@@ -167,18 +180,10 @@ TEST_CASE("an anisotropic row whose neighbours share its metric takes one weight
   for (std::uint8_t f : shared.state().model.anisotropic_family) marked += f == static_cast<std::uint8_t>(RowForm::shared_metric);
   CHECK(marked == n);
   for (auto& f : general.state_mutable().model.anisotropic_family) f = static_cast<std::uint8_t>(RowForm::anisotropic);
-  for (World* w : {&shared, &general}) {
-    auto& s = w->state_mutable();
-    for (std::size_t i = 0; i < n; ++i) {
-      const Vec3& x = s.particles.reference_position[i];
-      s.particles.position[i] = x + 1e-3 * Vec3(std::sin(90.0 * x.y()), std::sin(70.0 * x.z()), std::sin(110.0 * x.x()));
-    }
-  }
+  for (World* w : {&shared, &general}) wave(*w, 1e-3, Vec3(110.0, 90.0, 70.0));
   shared.step(30);
   general.step(30);
-  std::size_t same = 0;
-  for (std::size_t i = 0; i < n; ++i) same += shared.positions()[i] == general.positions()[i];
-  CHECK(same == n);
+  CHECK(same_positions(shared, general, n) == n);
   const auto& bs = shared.state().bonds;
   const auto& bg = general.state().bonds;
   CHECK(bs.alive == bg.alive);
