@@ -95,14 +95,15 @@ struct alignas(64) BondEnd {
 };
 
 // Which colliders held a particle in this step, and along which normals (systems/colliders.cpp), for
-// kick_end's support constraint (systems/integration.cpp). Two slots: a particle in a corner (a floor
-// and a wall) is held by both; a third collider at once is not recorded. 32 bytes; float: a normal
-// only decides a direction, to ~1e-7.
+// kick_end's support constraint (systems/integration.cpp). Three slots: a particle at the corner of a
+// room (a floor and two walls) is held by all three; a fourth collider at once is not recorded (three
+// independent normals already hold a velocity fully). 48 bytes; float: a normal only decides a
+// direction, to ~1e-7.
 struct ColliderContact {
   static constexpr std::int32_t kNone = -1;
-  static constexpr int kSlots = 2;
-  float normal[kSlots][3] = {};                // unit, out of the collider
-  std::int32_t collider[kSlots] = {kNone, kNone};  // index into StepSettings::colliders, or kNone; slot 0 first
+  static constexpr int kSlots = 3;
+  float normal[kSlots][3] = {};                       // unit, out of the collider
+  std::int32_t collider[kSlots] = {kNone, kNone, kNone};  // index into StepSettings::colliders, or kNone; filled in order
 };
 
 // Per-particle results of the step's systems.

@@ -26,7 +26,7 @@
 // holds the particle there. Taken out at once, it shattered the fig15 preview's glass plate (2 % of
 // its bonds left against 90 % in the full scene, the 5 m/s ball rebounding at 6.4 m/s): each crack at
 // the ground pushed a tet up by up to half a cell in one step, into the fragments above it.
-// Each particle's holding colliders (the first two) and their normals of this step go to
+// Each particle's holding colliders (the first three) and their normals of this step go to
 // ParticleState::collider_contact, for kick_end's support constraint (integration.cpp).
 // Reads: time, flags, surface_frames.   Writes: position, velocity, collider_contact.
 #include <cmath>
@@ -137,8 +137,9 @@ SystemDecl collider_system(WorldState& w) {
                 else y += push * deepest.normal;
                 const Vec3 surface_velocity = c.velocity + c.angular_velocity.cross(y - pc.center);
                 respond(v, surface_velocity, deepest.normal, c);
-                ColliderContact& h = held[i];  // the first two colliders (in scene order) that held it
-                const int slot = h.collider[0] == ColliderContact::kNone ? 0 : 1;
+                ColliderContact& h = held[i];  // the first kSlots colliders (in scene order) that held it
+                int slot = 0;
+                while (slot < ColliderContact::kSlots - 1 && h.collider[slot] != ColliderContact::kNone) ++slot;
                 if (h.collider[slot] == ColliderContact::kNone) {
                   h.collider[slot] = static_cast<std::int32_t>(k);
                   for (int a = 0; a < 3; ++a) h.normal[slot][a] = static_cast<float>(deepest.normal[a]);

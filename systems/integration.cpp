@@ -62,10 +62,55 @@ SystemDecl drift_system(WorldState& w) {
 
 namespace {
 // The velocity nearest to v that moves into none of the colliders that held the particle, each
-// relative to its surface velocity at y: for constraints (v − s_c)·n_c ≥ 0, the first of v, its
-// projection onto one constraint's plane, or onto both planes' common line, that satisfies both (the
-// Euclidean projection onto the two half-spaces). Normals near parallel (the same surface twice)
-// are taken one after the other.
+// relative to its surface velocity at y: for constraints (v − s_c)·n_c ≥ 0, the Euclidean projection
+// onto their half-spaces. Two: the first of v, its projection onto one constraint's plane, or onto
+// both planes' common line, that satisfies both. Three (a corner of a room): the first of v, a
+// projection onto one plane, onto two planes' common line, or onto the point all three share, that
+// satisfies every constraint and pushes out of each plane it lies on (a non-positive multiplier: the
+// optimality conditions of the projection, so the first found is the projection). Normals near
+// parallel (the same surface twice) or a near-singular corner are taken one after the other.
+// The three-constraint case of supported_velocity: active sets in order of size, each the projection
+// of v onto the planes of the set, u = v − Σ λ_c n_c with (u − s_c)·n_c = 0, accepted when every λ ≤ 0
+// (it pushes out of each plane) and u moves into no collider.
+Vec3 corner_projection(const Vec3& v, const Vec3 (&n)[3], const Vec3 (&surface)[3]) {
+  double gap[3];
+  for (int c = 0; c < 3; ++c) gap[c] = (v - surface[c]).dot(n[c]);
+  auto allowed = [&](const Vec3& u) {
+    for (int c = 0; c < 3; ++c)
+      if ((u - surface[c]).dot(n[c]) < -1e-12 * (1.0 + u.norm())) return false;
+    return true;
+  };
+  if (allowed(v)) return v;
+  for (int c = 0; c < 3; ++c) {  // one plane
+    if (!(gap[c] < 0.0)) continue;
+    const Vec3 u = v - gap[c] * n[c];
+    if (allowed(u)) return u;
+  }
+  for (int c = 0; c < 3; ++c) {  // two planes: c and d, their common line
+    const int d = (c + 1) % 3;
+    const double cos_cd = n[c].dot(n[d]), det = 1.0 - cos_cd * cos_cd;
+    if (!(det > 1e-6)) continue;
+    const double a = (gap[c] - cos_cd * gap[d]) / det, b = (gap[d] - cos_cd * gap[c]) / det;
+    if (a > 0.0 || b > 0.0) continue;
+    const Vec3 u = v - a * n[c] - b * n[d];
+    if (allowed(u)) return u;
+  }
+  // The three planes' common point: Gram G λ = gap.
+  Mat3 gram;
+  for (int c = 0; c < 3; ++c)
+    for (int d = 0; d < 3; ++d) gram(c, d) = n[c].dot(n[d]);
+  if (std::abs(gram.determinant()) > 1e-6) {
+    const Vec3 lambda = gram.inverse() * Vec3(gap[0], gap[1], gap[2]);
+    return v - lambda[0] * n[0] - lambda[1] * n[1] - lambda[2] * n[2];
+  }
+  Vec3 u = v;  // a degenerate corner: one plane after another
+  for (int c = 0; c < 3; ++c) {
+    const double g = (u - surface[c]).dot(n[c]);
+    if (g < 0.0) u -= g * n[c];
+  }
+  return u;
+}
+
 Vec3 supported_velocity(const Vec3& v, const Vec3& y, const ColliderContact& held, const std::vector<PlacedCollider>& placed) {
   Vec3 n[ColliderContact::kSlots], surface[ColliderContact::kSlots];
   int count = 0;
@@ -82,6 +127,7 @@ Vec3 supported_velocity(const Vec3& v, const Vec3& y, const ColliderContact& hel
   // Within rounding of a projection (a velocity projected onto one plane reads −1e-17 there).
   auto allowed = [&](const Vec3& u, int c) { return !(gap(u, c) < -1e-12 * (1.0 + u.norm())); };
   if (count == 1) return onto(v, 0);
+  if (count == 3) return corner_projection(v, n, surface);
   if (allowed(v, 0) && allowed(v, 1)) return v;
   const Vec3 on0 = onto(v, 0), on1 = onto(v, 1);
   if (!allowed(v, 0) && allowed(on0, 1)) return on0;
