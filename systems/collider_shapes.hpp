@@ -160,6 +160,23 @@ inline TetFace openable_face(const OpenableFaces& of, std::size_t i, int k) {
   return f;
 }
 
+// Calls visit(corner, normal) for every face particle i meets the colliders with: its original
+// boundary faces, patches [face_begin, face_end) of SurfacePatches that have a radius (unit normal),
+// then the crack faces `open` marks (OpenableFaces; normal not unit). Corners are offsets from the
+// particle's reference position, to be placed by its frame. One list for the colliders and the
+// surface frames, so both see the same faces in the same order.
+template <class Visit>
+inline void for_each_contact_face(const SurfacePatches& sf, std::uint32_t face_begin, std::uint32_t face_end,
+                                  const OpenableFaces& of, std::size_t i, std::uint8_t open, Visit&& visit) {
+  for (std::uint32_t q = face_begin; q < face_end; ++q)
+    if (sf.radius[q] > 0.0) visit(sf.corner[q], sf.normal[q]);  // else a layer share of a traction
+  for (int k = 0; k < 4; ++k)
+    if (open >> k & 1u) {
+      const TetFace face = openable_face(of, i, k);
+      visit(face.corner, face.normal);
+    }
+}
+
 // A point: the triangle with three equal corners.
 inline Penetration point_penetration(const PlacedCollider& pc, const Vec3& y) { return triangle_penetration(pc, {y, y, y}); }
 

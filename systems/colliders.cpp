@@ -96,20 +96,13 @@ SystemDecl collider_system(WorldState& w) {
                 Penetration deepest = at_centre;
                 bool facing = false;
                 centre = true;
-                for (std::uint32_t q = face_begin; q < face_end; ++q) {
-                  if (!(sf.radius[q] > 0.0)) continue;  // a layer share of a traction, not a face
+                for_each_contact_face(sf, face_begin, face_end, openable, i, open,
+                                      [&](const std::array<Vec3, 3>& corner, const Vec3& normal) {
                   // A face turned toward the collider is the surface there (then no sphere of reach).
-                  facing = facing || (normal_map * sf.normal[q]).dot(at_centre.normal) < 0.0;
-                  const Penetration pen = face_penetration(pc, x, framed ? &F : nullptr, sf.corner[q]);
+                  facing = facing || (normal_map * normal).dot(at_centre.normal) < 0.0;
+                  const Penetration pen = face_penetration(pc, x, framed ? &F : nullptr, corner);
                   if (pen.depth > deepest.depth) deepest = pen, centre = false;
-                }
-                for (int f = 0; f < 4; ++f) {
-                  if (!(open >> f & 1u)) continue;
-                  const TetFace face = openable_face(openable, i, static_cast<int>(f));
-                  facing = facing || (normal_map * face.normal).dot(at_centre.normal) < 0.0;
-                  const Penetration pen = face_penetration(pc, x, framed ? &F : nullptr, face.corner);
-                  if (pen.depth > deepest.depth) deepest = pen, centre = false;
-                }
+                });
                 if (reach > 0.0 && !facing) {
                   Penetration sphere = at_centre;
                   sphere.depth += reach;

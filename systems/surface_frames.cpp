@@ -78,8 +78,9 @@ void update_surface_frames(WorldState& w) {
     // The crack faces open now (their bonds broke by the end of this step), met like boundary faces.
     const std::uint8_t open = open_faces.empty() ? 0 : open_crack_faces(openable, w.bonds, i);
     if (!open_faces.empty()) open_faces[i] = open;
-    double reach = -1.0;
-    for (std::uint32_t q = sf.offsets[i]; q < sf.offsets[i + 1]; ++q)
+    const std::uint32_t face_begin = sf.offsets[i], face_end = sf.offsets[i + 1];
+    double reach = -1.0;  // over the corners, not the faces: a crack face's corners are its tet's
+    for (std::uint32_t q = face_begin; q < face_end; ++q)
       if (sf.radius[q] > 0.0)
         for (const Vec3& corner : sf.corner[q]) reach = std::max(reach, kMaxStretch * corner.norm());
     if (open)
@@ -95,16 +96,10 @@ void update_surface_frames(WorldState& w) {
       const double collider_motion = dt * (c.velocity.norm() + c.angular_velocity.norm() * arm);
       const double margin = 2.0 * (motion + collider_motion);
       if (collider_distance(pc, p.position[i]) < reach + margin) near = true;
-      if (was_held && near && !touching) {
-        for (std::uint32_t q = sf.offsets[i]; q < sf.offsets[i + 1]; ++q) {
-          if (!(sf.radius[q] > 0.0)) continue;
-          if (face_penetration(pc, p.position[i], &F_held, sf.corner[q]).depth > -(margin + 0.02 * reach)) touching = true;
-        }
-        for (int k = 0; k < 4; ++k)
-          if (open >> k & 1u)
-            if (face_penetration(pc, p.position[i], &F_held, openable_face(openable, i, k).corner).depth > -(margin + 0.02 * reach))
-              touching = true;
-      }
+      if (was_held && near && !touching)
+        for_each_contact_face(sf, face_begin, face_end, openable, i, open, [&](const std::array<Vec3, 3>& corner, const Vec3&) {
+          if (face_penetration(pc, p.position[i], &F_held, corner).depth > -(margin + 0.02 * reach)) touching = true;
+        });
     }
     if (!near) return;
     Mat3 K, N, F;
