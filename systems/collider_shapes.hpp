@@ -177,6 +177,77 @@ inline void for_each_contact_face(const SurfacePatches& sf, std::uint32_t face_b
     }
 }
 
+// The velocity nearest to v that moves into none of the colliders that held the particle, each
+// relative to its surface velocity at y: for constraints (v − s_c)·n_c ≥ 0, the Euclidean projection
+// onto their half-spaces, by active sets in order of size. Each candidate is the projection of v onto
+// the planes of its set, u = v − Σ λ_c n_c with (u − s_c)·n_c = 0: one plane (for a constraint v
+// breaks), two planes' common line, the three planes' common point. A candidate is accepted when it
+// moves into no collider and pushes out of each plane it lies on (λ ≤ 0: the projection's optimality
+// conditions, so the first found is the projection); the set of all the constraints, reached only
+// when no smaller set would do, is the projection without a test. Two normals near parallel (the
+// same surface twice) are taken one after the other; three near one plane (a singular corner) by
+// Dykstra's alternating projections when one pass does not satisfy all three.
+// "Allowed" is within rounding (1e-12 relative): a velocity projected onto a plane reads −1e-17 there.
+// n: the count (1–3) constraints' outward normals (need not be unit), surface: their surface velocities.
+inline Vec3 support_projection(const Vec3& v, const Vec3* n, const Vec3* surface, int count) {
+  auto gap = [&](const Vec3& u, int c) { return (u - surface[c]).dot(n[c]); };  // < 0: moving into c
+  auto onto = [&](const Vec3& u, int c) {  // onto constraint c's plane when u violates it
+    const double g = gap(u, c);
+    return g < 0.0 ? Vec3(u - g * n[c]) : u;
+  };
+  if (count == 1) return onto(v, 0);
+  auto allowed_by = [&](const Vec3& u, int c) { return !(gap(u, c) < -1e-12 * (1.0 + u.norm())); };
+  // u allowed by every constraint not in `on` (a bit per constraint: the planes u was put on, which
+  // it satisfies by construction; tested, they would read the normals' float rounding, ~1e-7 |g|).
+  auto allowed = [&](const Vec3& u, unsigned on) {
+    for (int c = 0; c < count; ++c)
+      if (!(on >> c & 1u) && !allowed_by(u, c)) return false;
+    return true;
+  };
+  if (allowed(v, 0u)) return v;
+  for (int c = 0; c < count; ++c) {  // one plane, of a constraint v breaks
+    if (allowed_by(v, c)) continue;
+    const Vec3 u = onto(v, c);
+    if (allowed(u, 1u << c)) return u;
+  }
+  for (int c = 0; c < (count == 2 ? 1 : count); ++c) {  // two planes: c and d, their common line
+    const int d = (c + 1) % count;
+    const double cos_cd = n[c].dot(n[d]), det = 1.0 - cos_cd * cos_cd;
+    if (!(det > 1e-6)) continue;
+    // v − a n_c − b n_d on both planes: [1 cos; cos 1] (a, b) = (gap_c, gap_d).
+    const double g_c = gap(v, c), g_d = gap(v, d);
+    const double a = (g_c - cos_cd * g_d) / det, b = (g_d - cos_cd * g_c) / det;
+    const Vec3 u = v - a * n[c] - b * n[d];
+    if (count == 2) return u;  // every constraint active
+    if (a > 0.0 || b > 0.0) continue;
+    if (allowed(u, 1u << c | 1u << d)) return u;
+  }
+  if (count == 3) {  // the three planes' common point: Gram G λ = gap
+    Mat3 gram;
+    for (int c = 0; c < 3; ++c)
+      for (int d = 0; d < 3; ++d) gram(c, d) = n[c].dot(n[d]);
+    // det G is the squared volume of the unit normals (1e-12: within ~6e-5° of one plane).
+    if (std::abs(gram.determinant()) > 1e-12) {
+      const Vec3 lambda = gram.inverse() * Vec3(gap(v, 0), gap(v, 1), gap(v, 2));
+      return v - lambda[0] * n[0] - lambda[1] * n[1] - lambda[2] * n[2];
+    }
+  }
+  Vec3 u = v;  // a degenerate set: one plane after another
+  for (int c = 0; c < count; ++c) u = onto(u, c);
+  if (count == 2 || allowed(u, 0u)) return u;
+  // Three normals near one plane (a singular corner): Dykstra's alternating projections, which
+  // converge to the projection onto the intersection, from v (the pass above was their first round).
+  u = v;
+  Vec3 correction[3] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  for (int round = 0; round < 64; ++round)
+    for (int c = 0; c < 3; ++c) {
+      const Vec3 before = u + correction[c];
+      u = onto(before, c);
+      correction[c] = before - u;
+    }
+  return u;
+}
+
 // A point: the triangle with three equal corners.
 inline Penetration point_penetration(const PlacedCollider& pc, const Vec3& y) { return triangle_penetration(pc, {y, y, y}); }
 

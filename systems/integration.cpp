@@ -18,10 +18,10 @@
 //             moving into the collider at (dt/2)|a| (3–4 mm/s at the bottom of a resting 12 cm box)
 //             though it does not move, and every exported frame carried that velocity (motion blur,
 //             velocity-driven effects). The part of the velocity moving into the colliders that held
-//             the particle this step (ParticleState::collider_contact, up to two, each relative to its
-//             surface velocity) is removed: the nearest velocity that moves into neither (held by
-//             two, as in a corner, that can be the motion along the line where both surfaces meet);
-//             a particle moving away keeps all of its velocity.
+//             the particle this step (ParticleState::collider_contact, up to three, each relative to
+//             its surface velocity) is removed: the nearest velocity that moves into none of them
+//             (held by two, as along the edge of a floor and a wall, that can be the motion along the
+//             line where both surfaces meet); a particle moving away keeps all of its velocity.
 //             It also checks every particle's new state (the step's health, part of velocity): a
 //             non-finite position or velocity, or a free particle faster than settings.max_speed, is
 //             recorded as the lowest such index in state.unstable_particle (an atomic minimum: the
@@ -61,56 +61,8 @@ SystemDecl drift_system(WorldState& w) {
 }
 
 namespace {
-// The velocity nearest to v that moves into none of the colliders that held the particle, each
-// relative to its surface velocity at y: for constraints (v − s_c)·n_c ≥ 0, the Euclidean projection
-// onto their half-spaces. Two: the first of v, its projection onto one constraint's plane, or onto
-// both planes' common line, that satisfies both. Three (a corner of a room): the first of v, a
-// projection onto one plane, onto two planes' common line, or onto the point all three share, that
-// satisfies every constraint and pushes out of each plane it lies on (a non-positive multiplier: the
-// optimality conditions of the projection, so the first found is the projection). Normals near
-// parallel (the same surface twice) or a near-singular corner are taken one after the other.
-// The three-constraint case of supported_velocity: active sets in order of size, each the projection
-// of v onto the planes of the set, u = v − Σ λ_c n_c with (u − s_c)·n_c = 0, accepted when every λ ≤ 0
-// (it pushes out of each plane) and u moves into no collider.
-Vec3 corner_projection(const Vec3& v, const Vec3 (&n)[3], const Vec3 (&surface)[3]) {
-  double gap[3];
-  for (int c = 0; c < 3; ++c) gap[c] = (v - surface[c]).dot(n[c]);
-  auto allowed = [&](const Vec3& u) {
-    for (int c = 0; c < 3; ++c)
-      if ((u - surface[c]).dot(n[c]) < -1e-12 * (1.0 + u.norm())) return false;
-    return true;
-  };
-  if (allowed(v)) return v;
-  for (int c = 0; c < 3; ++c) {  // one plane
-    if (!(gap[c] < 0.0)) continue;
-    const Vec3 u = v - gap[c] * n[c];
-    if (allowed(u)) return u;
-  }
-  for (int c = 0; c < 3; ++c) {  // two planes: c and d, their common line
-    const int d = (c + 1) % 3;
-    const double cos_cd = n[c].dot(n[d]), det = 1.0 - cos_cd * cos_cd;
-    if (!(det > 1e-6)) continue;
-    const double a = (gap[c] - cos_cd * gap[d]) / det, b = (gap[d] - cos_cd * gap[c]) / det;
-    if (a > 0.0 || b > 0.0) continue;
-    const Vec3 u = v - a * n[c] - b * n[d];
-    if (allowed(u)) return u;
-  }
-  // The three planes' common point: Gram G λ = gap.
-  Mat3 gram;
-  for (int c = 0; c < 3; ++c)
-    for (int d = 0; d < 3; ++d) gram(c, d) = n[c].dot(n[d]);
-  if (std::abs(gram.determinant()) > 1e-6) {
-    const Vec3 lambda = gram.inverse() * Vec3(gap[0], gap[1], gap[2]);
-    return v - lambda[0] * n[0] - lambda[1] * n[1] - lambda[2] * n[2];
-  }
-  Vec3 u = v;  // a degenerate corner: one plane after another
-  for (int c = 0; c < 3; ++c) {
-    const double g = (u - surface[c]).dot(n[c]);
-    if (g < 0.0) u -= g * n[c];
-  }
-  return u;
-}
-
+// The support constraint's inputs for particle i: its holding colliders' normals (as the colliders
+// stored them, in float) and surface velocities at y, then the projection (collider_shapes.hpp).
 Vec3 supported_velocity(const Vec3& v, const Vec3& y, const ColliderContact& held, const std::vector<PlacedCollider>& placed) {
   Vec3 n[ColliderContact::kSlots], surface[ColliderContact::kSlots];
   int count = 0;
@@ -119,25 +71,7 @@ Vec3 supported_velocity(const Vec3& v, const Vec3& y, const ColliderContact& hel
     n[c] = Vec3(held.normal[c][0], held.normal[c][1], held.normal[c][2]);
     surface[c] = pc.spec->velocity + pc.spec->angular_velocity.cross(y - pc.center);
   }
-  auto gap = [&](const Vec3& u, int c) { return (u - surface[c]).dot(n[c]); };  // < 0: moving into c
-  auto onto = [&](const Vec3& u, int c) {  // onto constraint c's plane when u violates it
-    const double g = gap(u, c);
-    return g < 0.0 ? Vec3(u - g * n[c]) : u;
-  };
-  // Within rounding of a projection (a velocity projected onto one plane reads −1e-17 there).
-  auto allowed = [&](const Vec3& u, int c) { return !(gap(u, c) < -1e-12 * (1.0 + u.norm())); };
-  if (count == 1) return onto(v, 0);
-  if (count == 3) return corner_projection(v, n, surface);
-  if (allowed(v, 0) && allowed(v, 1)) return v;
-  const Vec3 on0 = onto(v, 0), on1 = onto(v, 1);
-  if (!allowed(v, 0) && allowed(on0, 1)) return on0;
-  if (!allowed(v, 1) && allowed(on1, 0)) return on1;
-  const double c01 = n[0].dot(n[1]), det = 1.0 - c01 * c01;
-  if (!(det > 1e-6)) return onto(on0, 1);
-  // v − a n0 − b n1 on both planes: [1 c01; c01 1] (a, b) = (v·n0 − bound0, v·n1 − bound1).
-  const double g0 = gap(v, 0), g1 = gap(v, 1);
-  const double a = (g0 - c01 * g1) / det, b = (g1 - c01 * g0) / det;
-  return v - a * n[0] - b * n[1];
+  return support_projection(v, n, surface, count);
 }
 }  // namespace
 
