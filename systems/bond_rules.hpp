@@ -383,11 +383,19 @@ struct RowFormTag : std::bool_constant<kAnisotropic> {
 // one of them anisotropic, the isotropic wall ran the anisotropic form. Every bond joins two
 // particles of the same form family, so both of its ends use the same form (bond_rules.hpp's
 // symmetry holds); a shared-metric row gives the same bits as the general anisotropic form.
-template <bool kAnisotropicWorld, class Row>
+// kReadsFarMetric false: the kernel reads no neighbour's metric (the dilatation, whose ℓ is i's own
+// side only), so shared-metric rows take the general form's code and the row is instantiated twice,
+// not three times.
+template <bool kAnisotropicWorld, bool kReadsFarMetric = true, class Row>
 inline void dispatch_row(const std::vector<std::uint8_t>& anisotropic_family, std::size_t i, Row&& row) {
   if constexpr (kAnisotropicWorld) {
     switch (row_form(anisotropic_family, i)) {
-      case RowForm::shared_metric: row(RowFormTag<true, true>{}); return;
+      case RowForm::shared_metric:
+        if constexpr (kReadsFarMetric) {
+          row(RowFormTag<true, true>{});
+          return;
+        }
+        [[fallthrough]];
       case RowForm::anisotropic: row(RowFormTag<true>{}); return;
       case RowForm::isotropic: break;
     }

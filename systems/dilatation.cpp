@@ -22,7 +22,8 @@ void compute_dilatation(const WorldState& w, const std::vector<Vec3>& y_vec, std
     parallel_for_each(w.particles.count(), [&](std::size_t i) {
       // Either form gives the same bits for an isotropic particle (ℓ = |ξ| exactly for M = I); the
       // isotropic one skips the weighted length.
-      dispatch_row<kAnisotropicWorld>(w.model.anisotropic_family, i, [&](auto row_form) {
+      // Its ℓ is i's side only, so a shared-metric row is the general form (kReadsFarMetric false).
+      dispatch_row<kAnisotropicWorld, false>(w.model.anisotropic_family, i, [&](auto row_form) {
         constexpr bool kAnisotropic = decltype(row_form)::value;
         const auto o = bs.origin(i);
         const AnisotropyMetric& g_i = bs.template anisotropy<kAnisotropic>(i);
