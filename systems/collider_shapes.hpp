@@ -1,6 +1,7 @@
-// Collider geometry (systems/README.md §8.3), shared by the colliders and the surface frames they read:
-// where a kinematic collider is at a time, how far a point is from it, and how deep a triangle (a
-// boundary face of a particle's tet, placed by the particle's frame) reaches into it. A point (the
+// Collider geometry (systems/README.md §8.3), shared by the colliders, the surface frames they read and
+// kick_end: where a kinematic collider is at a time, how far a point is from it, how deep a triangle (a
+// boundary face of a particle's tet, placed by the particle's frame) reaches into it, and the nearest
+// velocity that moves into none of the colliders holding a particle (support_projection). A point (the
 // particle's centre) is a triangle with three equal corners. The penetration is the push along one
 // outward normal that takes the triangle out of the collider:
 //   plane (P, N): depth = −min_c (v_c − P)·N, the lowest corner below the plane; exact.
