@@ -233,14 +233,17 @@ inline Vec3 support_projection(const Vec3& v, const Vec3* n, const Vec3* surface
       return v - lambda[0] * n[0] - lambda[1] * n[1] - lambda[2] * n[2];
     }
   }
-  Vec3 u = v;  // a degenerate set: one plane after another
-  for (int c = 0; c < count; ++c) u = onto(u, c);
+  // A degenerate set: one plane after another. That pass is the first round of Dykstra's alternating
+  // projections (which converge to the projection onto the intersection); three normals near one
+  // plane (a singular corner) that it leaves unsatisfied take further rounds from its corrections.
+  Vec3 u = v, correction[3];
+  for (int c = 0; c < count; ++c) {
+    const Vec3 before = u;
+    u = onto(before, c);
+    correction[c] = before - u;
+  }
   if (count == 2 || allowed(u, 0u)) return u;
-  // Three normals near one plane (a singular corner): Dykstra's alternating projections, which
-  // converge to the projection onto the intersection, from v (the pass above was their first round).
-  u = v;
-  Vec3 correction[3] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
-  for (int round = 0; round < 64; ++round)
+  for (int round = 1; round < 64; ++round)
     for (int c = 0; c < 3; ++c) {
       const Vec3 before = u + correction[c];
       u = onto(before, c);
