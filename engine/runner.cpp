@@ -495,7 +495,12 @@ RunSummary run_world(World& world, const RunOptions& options) {
                         {"halo_bytes_per_step", r.steps ? double(r.halo_bytes) / double(r.steps) : 0.0},
                         {"contact_ghost_refreshes", r.contact_ghost_refreshes},
                         {"contact_list_builds", r.contact.list_builds},
-                        {"contact_list_searched", r.contact.list_searched}});
+                        {"contact_list_searched", r.contact.list_searched},
+                        {"state_gathers", r.state_gathers},
+                        {"piece_rounds", r.piece_rounds},
+                        {"replay_seconds", r.replay_seconds},
+                        {"gather_seconds", r.gather_seconds},
+                        {"piece_seconds", r.piece_seconds}});
   }
   js["first_frame"] = summary.first_frame;  // > 0: resumed after that frame's checkpoint
   js["last_frame"] = summary.last_frame;

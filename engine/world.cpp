@@ -339,7 +339,9 @@ std::vector<RankStats> World::rank_stats() {
   const std::vector<double> mine = {double(now.owned), double(now.bond_ghosts), double(now.contact_ghosts),
                                     double(now.halo_bytes), double(now.steps), double(now.contact_ghost_refreshes),
                                     double(now.list_builds), double(now.list_additions),
-                                    double(now.list_partial_updates), double(now.list_searched)};
+                                    double(now.list_partial_updates), double(now.list_searched),
+                                    double(now.state_gathers), double(now.piece_rounds), now.replay_seconds,
+                                    now.gather_seconds, now.piece_seconds};
   std::vector<double> all = impl_->runtime->gather_values(mine);  // counts < 2^53: exact in doubles
   if (all.empty()) all = mine;  // ranks other than 0: their own
   std::vector<RankStats> out(all.size() / mine.size());
@@ -347,7 +349,7 @@ std::vector<RankStats> World::rank_stats() {
     const double* v = all.data() + r * mine.size();
     auto u64 = [&](int k) { return static_cast<std::uint64_t>(v[k]); };
     out[r] = {static_cast<std::uint32_t>(v[0]), static_cast<std::uint32_t>(v[1]), static_cast<std::uint32_t>(v[2]),
-              u64(3), u64(4), u64(5), {u64(6), u64(7), u64(8), u64(9)}};
+              u64(3), u64(4), u64(5), {u64(6), u64(7), u64(8), u64(9)}, u64(10), u64(11), v[12], v[13], v[14]};
   }
   return out;
 }

@@ -453,6 +453,13 @@ int cmd_run(const Args& a) {
                     st.steps ? 1e-3 * double(st.halo_bytes) / double(st.steps) : 0.0,
                     (unsigned long long)st.contact_ghost_refreshes);
       std::cerr << buf;
+      if (st.state_gathers > 0) {
+        std::snprintf(buf, sizeof buf,
+                      "        %llu state gathers (frames, re-splits): %.2f s mesh replay, %.2f s gather, %.2f s pieces (%llu label rounds)\n",
+                      (unsigned long long)st.state_gathers, st.replay_seconds, st.gather_seconds, st.piece_seconds,
+                      (unsigned long long)st.piece_rounds);
+        std::cerr << buf;
+      }
     }
   }
   if (a.profile) std::cout << "profile (" << s.threads << " threads):\n" << perifx::profile_table(s) << std::flush;

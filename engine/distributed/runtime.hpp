@@ -77,6 +77,11 @@ struct RankShare {
   std::uint64_t contact_ghost_refreshes = 0;
   // Its own contact pair list's counters (systems/contact.cpp).
   std::uint64_t list_builds = 0, list_additions = 0, list_partial_updates = 0, list_searched = 0;
+  // Gathers of the particle and bond state to rank 0 (Runtime::gather: every frame, every re-split),
+  // the label rounds of the pieces search in them, and their wall times, s: rank 0's replay of the mesh
+  // splits, the gather itself, the pieces search (each rank's own, waits included).
+  std::uint64_t state_gathers = 0, piece_rounds = 0;
+  double replay_seconds = 0.0, gather_seconds = 0.0, piece_seconds = 0.0;
 
   // Adds `other`'s running totals (traffic, steps, refreshes, list counters), not its counts of now.
   void add_totals(const RankShare& other) {
@@ -87,6 +92,11 @@ struct RankShare {
     list_additions += other.list_additions;
     list_partial_updates += other.list_partial_updates;
     list_searched += other.list_searched;
+    state_gathers += other.state_gathers;
+    piece_rounds += other.piece_rounds;
+    replay_seconds += other.replay_seconds;
+    gather_seconds += other.gather_seconds;
+    piece_seconds += other.piece_seconds;
   }
 };
 

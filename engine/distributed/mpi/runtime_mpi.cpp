@@ -5,6 +5,7 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -126,6 +127,8 @@ struct Runtime::Impl {
   std::uint64_t contact_refreshes = 0;
   std::uint64_t halo_bytes = 0;            // received by exchange() and the contact-ghost refreshes
   std::uint64_t steps = 0;
+  std::uint64_t state_gathers = 0, piece_rounds = 0;      // RankShare
+  double replay_seconds = 0, gather_seconds = 0, piece_seconds = 0;
   std::vector<double> projectile_mine;     // this rank's projectile contacts, while they are gathered
   std::vector<Domain> rebalanced;          // the re-split a StepReport asked for
   // The embedded mesh (rank 0's full world) is split by replaying, at each gather, every step's breaks:
@@ -260,6 +263,7 @@ struct Runtime::Impl {
     };
     for (;;) {
       lowered = 0;
+      ++piece_rounds;
       exchange(layout.sends, layout.receives, send_buffer, receive_buffer, 1, kTagPieces, pack, unpack);
       int any = 0;
       check(MPI_Allreduce(&lowered, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD), "allreduce");
@@ -471,7 +475,7 @@ RankShare Runtime::share() const {
   const auto& pairs = m.local->contact.pairs;
   return {m.layout.owned_count, m.layout.base_count - m.layout.owned_count, local - m.layout.base_count,
           m.halo_bytes, m.steps, m.contact_refreshes, pairs.builds, pairs.additions, pairs.partial_updates,
-          pairs.searched};
+          pairs.searched, m.state_gathers, m.piece_rounds, m.replay_seconds, m.gather_seconds, m.piece_seconds};
 }
 Scheduler& Runtime::scheduler() { return *impl_->scheduler; }
 
@@ -512,7 +516,13 @@ void Runtime::gather(WorldState& full) {
   Impl& m = *impl_;
   const WorldState& w = *m.local;
   const auto& layout = m.layout;
+  using Clock = std::chrono::steady_clock;
+  auto seconds_since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+  const auto replay_start = Clock::now();
   if (m.track_breaks) m.replay_mesh(full);  // before the bond states below overwrite the replayed ones
+  m.replay_seconds += seconds_since(replay_start);
+  const auto gather_start = Clock::now();
+  ++m.state_gathers;
   full.clock = w.clock;
   full.projectiles.bodies = w.projectiles.bodies;  // the same on every rank
   // summary.json's contact list counters: this rank's (rank 0's, where they are written).
@@ -570,8 +580,11 @@ void Runtime::gather(WorldState& full) {
   gather_bonds(w.bonds.alive, full.bonds.alive);
   gather_bonds(w.bonds.plastic_extension, full.bonds.plastic_extension);
   gather_bonds(w.bonds.plastic_extension_mirror, full.bonds.plastic_extension_mirror);
+  m.gather_seconds += seconds_since(gather_start);
   // The pieces, found by every rank from its own bonds; rank 0 gives the stable ids from these roots.
+  const auto piece_start = Clock::now();
   m.find_pieces();
+  m.piece_seconds += seconds_since(piece_start);
   if (layout.rank == 0) full.derived.fragment_root.resize(full.particles.count());
   gather_slices(m.owned_roots.data(), m.owned_roots.size(), full.derived.fragment_root.data(), layout.rank,
                 layout.ranks, kTagGather, particles_of);

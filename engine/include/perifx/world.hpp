@@ -91,6 +91,10 @@ struct RankStats {
   std::uint64_t steps = 0;            // steps it took part in (halo_bytes / steps: bytes per step)
   std::uint64_t contact_ghost_refreshes = 0;
   ContactCounters contact;            // its own pair list's
+  // Gathers of the state to rank 0 (every frame, every re-split), label rounds of the distributed
+  // pieces search in them, and wall seconds of rank 0's mesh-split replay, the gather and the pieces search.
+  std::uint64_t state_gathers = 0, piece_rounds = 0;
+  double replay_seconds = 0.0, gather_seconds = 0.0, piece_seconds = 0.0;
 };
 
 // Wall time of one system of the step's task graph while profiling was on (World::set_profiling).
