@@ -83,7 +83,8 @@ struct RankShare {
   std::uint64_t state_gathers = 0, piece_rounds = 0;
   double replay_seconds = 0.0, gather_seconds = 0.0, piece_seconds = 0.0;
 
-  // Adds `other`'s running totals (traffic, steps, refreshes, list counters), not its counts of now.
+  // Adds `other`'s running totals (traffic, steps, refreshes, list counters, gathers and their times),
+  // not its counts of now.
   void add_totals(const RankShare& other) {
     halo_bytes += other.halo_bytes;
     steps += other.steps;

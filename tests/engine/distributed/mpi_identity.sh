@@ -106,7 +106,7 @@ for k, r in enumerate(stats):
     if not r["halo_bytes_per_step"] >= 48 * r["bond_ghosts"]: problems.append(f"rank {k}: halo below the motion halo: {r}")
     # Every rank takes part in every gather, and each pieces search ends with a round in which
     # no rank lowers a label, so it takes at least one round per gather, the same count on every rank.
-    if r["state_gathers"] != stats[0]["state_gathers"] or r["state_gathers"] < 1: problems.append(f"rank {k}: frame gathers {r}")
+    if r["state_gathers"] != stats[0]["state_gathers"] or r["state_gathers"] < 1: problems.append(f"rank {k}: state gathers {r}")
     if r["piece_rounds"] != stats[0]["piece_rounds"] or r["piece_rounds"] < r["state_gathers"]: problems.append(f"rank {k}: piece rounds {r}")
 if not s["contact_list_builds"] > 0: problems.append("no contact list built")
 print("mpi_identity: 4 ranks: " + "; ".join(f"rank {k} owns {r['owned_particles']}, {r['bond_ghosts']} bond + "
