@@ -26,13 +26,57 @@
 // can come within the contact distance of an owned one. Those change as pieces move, so they are
 // appended after the bond ghosts and the owned range (not in global order; WorldState::global_index
 // says who they are) and refreshed with a skin, as a Verlet list is: at a refresh a rank receives every
-// particle within contact_layer = d_c,max + contact_skin of one of its owned particles, and the set
-// stays complete until some particle anywhere has moved more than contact_skin/2 since (then two
-// particles have closed by at most contact_skin). "Within" is tested on cells of size contact_layer:
-// each rank lists the cells its owned particles occupy, and a particle goes to every rank that
-// occupies one of the 27 cells around its own. Contact ghosts move with the motion halo; the contact
-// system sums an owned particle's pairs in increasing global index, so its force has the one-process
-// bits whichever ghosts are present (systems/contact.cpp).
+// particle within contact_layer = d_c,max + contact_skin of one of its owned particles. "Within" is
+// tested on the cells of a fixed grid of size contact_layer: each rank lists the cells its owned
+// particles occupy, and a particle goes to every rank that occupies one of the 27 cells around its
+// own. The grid is absolute, so the selection depends on absolute positions, but only by sending more:
+// two particles at most contact_layer apart differ by at most one cell along each axis, so every
+// remote particle within contact_layer of an owned one at the refresh is sent (or is a bond ghost,
+// whose motion comes anyway). That is all the argument below needs. Contact ghosts move with the
+// motion halo; the contact system sums an owned particle's pairs in increasing global index, so its
+// force has the one-process bits whichever ghosts are present (systems/contact.cpp).
+//
+// When the contact ghosts must be refreshed (contact_ghost_motion, contact_ghosts_stale). Let d_i be
+// particle i's displacement since the last refresh, at the positions the next step's contact will
+// read. A remote particle j missing from owned particle i's rank was farther than contact_layer from
+// i at the refresh, so now |y_i − y_j| > contact_layer − |d_i − d_j|: the ghosts are complete as long
+// as |d_i − d_j| ≤ contact_skin for every such pair, and then no missing pair is within d_c,max.
+// Only differences of displacements enter: a translation of everything closes no pair. Two
+// conditions each bound every difference, and the ghosts are kept when either holds:
+//   (A) every particle has |d_i| ≤ contact_skin/2 (then |d_i − d_j| ≤ |d_i| + |d_j| ≤ contact_skin);
+//   (B) the box that holds every particle's d_i has a diagonal ≤ contact_skin (any two points of a box
+//       are at most its diagonal apart). A body falling as one, or pieces drifting together, passes
+//       (B) whatever distance they travel; pieces flying apart from where they are pass (A) longer.
+// The test runs after a step, when the next step's positions are not known: each particle's d_i is
+// taken as a ball of radius L_i (the look-ahead, below) around its displacement now, so (A) uses
+// |d_i| + L_i and (B) the box of the cubes d_i ± L_i. Each rank measures its owned particles
+// (contact_ghost_motion: its (A) and its box); the runtime combines every rank's in the step's one
+// MPI_Allreduce, a MIN over uint64 words (encode_contact_ghost_motion: (A) as 0/1, the box's lower
+// corner in an order-preserving map of the doubles, its upper corner in the complement of that map,
+// so the MIN gives the largest), and every rank decodes the same words and decides the same (a min
+// or max is exact: no order of summation enters).
+// The look-ahead L_i bounds how far i moves in the next step (velocity Verlet, systems/integration.cpp;
+// the step runs kick_begin, boundary conditions, drift, colliders; a, v as at the end of this step):
+//   the drift: y += dt·v', v' = e·v + (dt/2)·a with the damping factor e ≤ 1, so at most
+//     D_i = dt|v| + dt²|a|/2. Forces (contact, projectiles, loads) act through a and enter the step
+//     after; nothing else moves a particle (projectiles move themselves only).
+//   colliders: none: L_i = D_i. One static plane (most scenes: a ground): its depth is linear in the
+//     particle's position (the centre, the faces placed by the frame of the last step and the sphere
+//     of reach all move with it and meet the plane along the same normal), so the push-out, along the
+//     normal, at most takes back the drift's inward part, beyond which the depth the particle had
+//     before the drift is taken out at ≤ kDepenetrationSpeed (colliders.cpp): L_i = D_i + 0.5 m/s·dt.
+//     Otherwise (several colliders, moving or curved ones): the push-out of one static convex collider
+//     is at most the depth the drift gained (depths are 1-Lipschitz) plus that depenetration, and a
+//     moving one's surface moves at most dt·(|v_c| + |ω_c|·arm); L_i = 2 D_i + dt·Σ_c (0.5 m/s +
+//     |v_c| + |ω_c|·arm). Not a proof for a particle that two colliders push in the same step (the
+//     second one's "before" is measured from the first one's push) or where a curved collider's
+//     sphere of reach switches on; the factor 2 leaves room, as it always did.
+//   boundary conditions (particles in a condition's list): the next step's prescribed velocity is the
+//     condition's; L_i is at least 2 (dt|v| + dt²|a|), the look-ahead every particle had before
+//     (2026-12), which follows a steady or ramped condition but not one that switches on at once.
+// After a refresh the next step is not tested before it runs: a particle whose look-ahead exceeds
+// contact_skin/2 (1.5 d_c,max with the default skin, more than a particle spacing in one step) could
+// outrun the new ghosts in that step.
 //
 // Projectiles are replicated: every rank steps the same spheres; the forces they receive are summed
 // over every rank's touching particles in global order (projectile_contact's gather, runtime).
@@ -41,6 +85,7 @@
 // holds only the mesh's per-particle held rotations, which mesh_rotations steps from the families.
 #pragma once
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -96,9 +141,26 @@ void find_contact_sends(const WorldState& local, LocalLayout& layout,
 std::vector<char> pack_contact_ghosts(const WorldState& local, const HaloLink& link);
 void set_contact_ghosts(WorldState& local, LocalLayout& layout,
                         const std::vector<std::pair<int, std::vector<char>>>& received_by_rank);
-// This rank's half of the refresh test: some owned particle may, after the next step's drift, be more
-// than contact_skin/2 from where it was at the last refresh (the bound is 2 × (dt|v| + dt²|a|), twice
-// the drift's own displacement, which leaves room for boundary conditions and colliders).
-bool contact_ghosts_stale(const WorldState& local, const LocalLayout& layout);
+// The refresh test (see "When the contact ghosts must be refreshed" above). One rank's measure of its
+// owned particles: (A) and the box of the displacements widened by their look-ahead. No owned
+// particles: (A) holds and the box is empty (low +inf, high −inf). A non-finite value (or no refresh
+// yet) fails both: (A) false, the box infinite.
+struct ContactGhostMotion {
+  bool within_half_skin = true;  // (A): |d_i| + L_i ≤ contact_skin/2 for every particle measured
+  Vec3 low = Vec3::Constant(std::numeric_limits<double>::infinity());    // (B): min of d_i − L_i, m
+  Vec3 high = Vec3::Constant(-std::numeric_limits<double>::infinity());  //      max of d_i + L_i, m
+};
+ContactGhostMotion contact_ghost_motion(const WorldState& local, const LocalLayout& layout);
+// Every rank's measures at once: (A) of all, the box around all.
+ContactGhostMotion combine(const ContactGhostMotion& a, const ContactGhostMotion& b);
+// The measure as words whose elementwise minimum over ranks is the encoding of the ranks' combine
+// (the runtime's MPI_Allreduce with MPI_MIN over MPI_UINT64_T), and back.
+constexpr std::size_t kContactGhostMotionWords = 7;
+void encode_contact_ghost_motion(const ContactGhostMotion& motion, std::uint64_t* words);
+ContactGhostMotion decode_contact_ghost_motion(const std::uint64_t* words);
+// Neither (A) nor (B) holds for the combined measure of every rank: refresh.
+bool contact_ghosts_stale(const ContactGhostMotion& everyone, double contact_skin);
+// One step's look-ahead L_i of local particle i (above); `constrained`: i is in a boundary condition's list.
+double contact_ghost_lookahead(const WorldState& local, std::uint32_t i, bool constrained);
 
 }  // namespace perifx::distributed

@@ -444,18 +444,20 @@ StepReport Runtime::step(bool check_broken) {
   ++c.step;
   c.time = static_cast<double>(c.step) * c.dt;
   if (m.track_breaks) m.record_breaks(c.step);
-  // [0] lowest unstable global index, [1] 0 when some owned particle has a broken bond, [2] 0 when
-  // the contact ghosts must be refreshed before the next step: all three minima.
-  std::uint64_t mine[3] = {ParticleState::kAllStable, 1, 1};
+  // [0] lowest unstable global index, [1] 0 when some owned particle has a broken bond, [2, 9) the
+  // contact ghosts' motion since their last refresh (local_world.hpp, encode_contact_ghost_motion):
+  // all minima, in one reduction.
+  constexpr std::size_t kWords = 2 + kContactGhostMotionWords;
+  std::uint64_t mine[kWords] = {ParticleState::kAllStable, 1};
   if (w.state.unstable_particle != ParticleState::kAllStable)
     mine[0] = m.layout.global_of[static_cast<std::size_t>(w.state.unstable_particle)];
   if (check_broken) {
     const auto* broken = w.state.broken_bonds.data() + m.layout.owned_begin;
     if (std::any_of(broken, broken + m.layout.owned_count, [](std::uint32_t b) { return b != 0; })) mine[1] = 0;
   }
-  if (w.contact.enabled && contact_ghosts_stale(w, m.layout)) mine[2] = 0;
-  std::uint64_t all[3];
-  check(MPI_Allreduce(mine, all, 3, MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD), "allreduce");
+  encode_contact_ghost_motion(w.contact.enabled ? contact_ghost_motion(w, m.layout) : ContactGhostMotion{}, mine + 2);
+  std::uint64_t all[kWords];
+  check(MPI_Allreduce(mine, all, static_cast<int>(kWords), MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD), "allreduce");
   StepReport report{all[0], all[1] == 0, false};
   if (all[0] != ParticleState::kAllStable) return report;  // the run stops; positions may not be finite
   const std::uint64_t interval = w.settings.distributed.rebalance_interval;
@@ -463,7 +465,9 @@ StepReport Runtime::step(bool check_broken) {
     report.rebalance = true;  // World::step re-splits; contact ghosts come with the new local worlds
     return report;
   }
-  if (all[2] == 0) m.refresh_contact_ghosts();
+  // The same words on every rank, so the same decision.
+  if (w.contact.enabled && contact_ghosts_stale(decode_contact_ghost_motion(all + 2), m.layout.contact_skin))
+    m.refresh_contact_ghosts();
   return report;
 }
 

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 
 #include "distributed/local_world.hpp"
 #include "distributed/pieces.hpp"
@@ -71,6 +72,28 @@ void refresh_contact_ghosts(std::vector<Rank>& ranks) {
           static_cast<int>(q), distributed::pack_contact_ghosts(*ranks[q].world, link));
   for (std::size_t r = 0; r < ranks.size(); ++r)
     distributed::set_contact_ghosts(*ranks[r].world, ranks[r].layout, received[r]);
+}
+
+// The refresh test as the runtime decides it: every rank's measure encoded, the words' elementwise
+// minimum over ranks (the MPI_Allreduce with MPI_MIN), decoded, then stale or not. Also checks that
+// the minimum decodes to the ranks' combine.
+bool contact_ghosts_stale(const std::vector<Rank>& ranks) {
+  constexpr std::size_t n = distributed::kContactGhostMotionWords;
+  std::uint64_t all[n];
+  std::fill(all, all + n, ~std::uint64_t{0});
+  distributed::ContactGhostMotion combined;
+  for (const auto& rank : ranks) {
+    const auto motion = distributed::contact_ghost_motion(*rank.world, rank.layout);
+    combined = distributed::combine(combined, motion);
+    std::uint64_t mine[n];
+    distributed::encode_contact_ghost_motion(motion, mine);
+    for (std::size_t k = 0; k < n; ++k) all[k] = std::min(all[k], mine[k]);
+  }
+  const auto decoded = distributed::decode_contact_ghost_motion(all);
+  CHECK(decoded.within_half_skin == combined.within_half_skin);
+  CHECK(decoded.low == combined.low);
+  CHECK(decoded.high == combined.high);
+  return distributed::contact_ghosts_stale(decoded, ranks[0].layout.contact_skin);
 }
 
 }  // namespace
@@ -155,11 +178,12 @@ static void lockstep_matches_one_process(const std::filesystem::path& scene_file
     for (std::uint64_t step = 0; step < steps; ++step) {
       for (std::size_t s = 0; s < ranks[0].systems.size(); ++s)
         for (auto& rank : ranks) rank.systems[s].run();
-      bool stale = false;
       for (auto& rank : ranks) {
         ++rank.world->clock.step;
         rank.world->clock.time = static_cast<double>(rank.world->clock.step) * rank.world->clock.dt;
-        stale = distributed::contact_ghosts_stale(*rank.world, rank.layout) || stale;
+      }
+      const bool stale = !control && contact_ghosts_stale(ranks);
+      for (auto& rank : ranks) {
         const auto& l = rank.layout;
         const WorldState& w = *rank.world;
         most_contact_ghosts = std::max<std::size_t>(most_contact_ghosts, w.particles.count() - l.base_count);
@@ -223,6 +247,141 @@ TEST_CASE("local worlds: two blocks collide across ranks through contact ghosts,
   // (the blocks then pass through each other).
   lockstep_matches_one_process(std::filesystem::path(PERIFX_SOURCE_DIR) / "tests/engine/distributed/contact_blocks.json",
                                200, {2, 3, -2}, false, true);
+}
+
+TEST_CASE("local worlds: contact ghosts: a translation of everything keeps them, particles moving apart refresh them") {
+  // The two blocks at 2 ranks, their contact ghosts refreshed, then positions set by hand (no step):
+  // velocities and accelerations zero, so the look-ahead is zero (no colliders, no conditions).
+  scene::Scene sc = scene::load_scene_file(std::filesystem::path(PERIFX_SOURCE_DIR) /
+                                           "tests/engine/distributed/contact_blocks.json");
+  const World source(sc);
+  const WorldState& full = source.state();
+  const auto domains = distributed::split_by_work(full, 2);
+  std::vector<Rank> ranks(2);
+  for (std::size_t r = 0; r < ranks.size(); ++r) {
+    ranks[r].layout = distributed::make_layout(full, domains, static_cast<int>(r));
+    ranks[r].world = distributed::make_local_world(full, ranks[r].layout);
+    REQUIRE(ranks[r].world->contact.enabled);
+  }
+  refresh_contact_ghosts(ranks);
+  const double skin = ranks[0].layout.contact_skin, layer = ranks[0].layout.contact_layer;
+  REQUIRE(skin > 0.0);
+  REQUIRE(layer > skin);
+  for (const auto& rank : ranks) CHECK(rank.world->particles.count() > rank.layout.base_count);  // some contact ghosts
+  // The ghost set is complete: every other rank's particle within the layer of an owned one is local.
+  std::size_t missing = 0, pairs_within = 0;
+  for (const auto& rank : ranks) {
+    const auto& l = rank.layout;
+    const auto& local = l.global_of;
+    std::vector<std::uint32_t> present(local.begin(), local.end());
+    std::sort(present.begin(), present.end());
+    const auto& domain = l.domains[static_cast<std::size_t>(l.rank)];
+    for (std::uint32_t m = 0; m < l.owned_count; ++m)
+      for (std::uint32_t g = 0; g < full.particles.count(); ++g) {
+        if (g >= domain.first && g < domain.last) continue;
+        if ((full.particles.position[g] - rank.world->particles.position[l.owned_begin + m]).norm() > layer) continue;
+        ++pairs_within;
+        missing += !std::binary_search(present.begin(), present.end(), g);
+      }
+  }
+  CHECK(pairs_within > 0);
+  CHECK(missing == 0);
+  for (auto& rank : ranks) {
+    auto& p = rank.world->particles;
+    std::fill(p.velocity.begin(), p.velocity.end(), Vec3::Zero());
+    std::fill(p.acceleration.begin(), p.acceleration.end(), Vec3::Zero());
+  }
+  CHECK_FALSE(contact_ghosts_stale(ranks));
+  auto move_owned = [&](const Vec3& by) {
+    for (auto& rank : ranks) {
+      const auto& l = rank.layout;
+      for (std::uint32_t i = l.owned_begin; i < l.owned_begin + l.owned_count; ++i) rank.world->particles.position[i] += by;
+    }
+  };
+  // Every particle of every rank moved by 5 half skins: (A) fails, (B) holds (the box is a point).
+  const Vec3 shift = 2.5 * skin * Vec3(0.6, -0.8, 0.0);
+  move_owned(shift);
+  {
+    distributed::ContactGhostMotion all;
+    for (const auto& rank : ranks) all = distributed::combine(all, distributed::contact_ghost_motion(*rank.world, rank.layout));
+    CHECK_FALSE(all.within_half_skin);
+    CHECK((all.high - all.low).norm() < 1e-9 * skin);
+  }
+  CHECK_FALSE(contact_ghosts_stale(ranks));
+  // One particle of each rank, on top of it, moves 0.3 skin along +x and −x: 0.6 skin apart. Still kept.
+  auto& y0 = ranks[0].world->particles.position;
+  auto& y1 = ranks[1].world->particles.position;
+  const std::uint32_t i0 = ranks[0].layout.owned_begin, i1 = ranks[1].layout.owned_begin;
+  y0[i0].x() += 0.3 * skin;
+  y1[i1].x() -= 0.3 * skin;
+  CHECK_FALSE(contact_ghosts_stale(ranks));
+  // 0.6 skin each way: 1.2 skin apart, more than the skin: stale.
+  y0[i0].x() += 0.3 * skin;
+  y1[i1].x() -= 0.3 * skin;
+  CHECK(contact_ghosts_stale(ranks));
+  // Back to the translation: kept again (the test looks at displacements since the refresh, not steps).
+  y0[i0].x() -= 0.6 * skin;
+  y1[i1].x() += 0.6 * skin;
+  CHECK_FALSE(contact_ghosts_stale(ranks));
+  // The look-ahead, on top of the translation: one particle's velocity would carry it 0.25 skin in
+  // the next step, the others' nothing: the box of d ± L has a diagonal of 0.5 √3 = 0.87 skin, kept;
+  // 0.3 skin: 0.6 √3 = 1.04 skin, stale.
+  auto& v0 = ranks[0].world->particles.velocity;
+  const double dt = ranks[0].world->clock.dt;
+  REQUIRE(dt > 0.0);
+  v0[i0] = Vec3(0.25 * skin / dt, 0.0, 0.0);
+  CHECK_FALSE(contact_ghosts_stale(ranks));
+  v0[i0] = Vec3(0.3 * skin / dt, 0.0, 0.0);
+  CHECK(contact_ghosts_stale(ranks));
+  // Without the translation (A) decides: 0.3 skin of look-ahead is within the half skin, 0.6 is not.
+  move_owned(-shift);
+  CHECK_FALSE(contact_ghosts_stale(ranks));
+  v0[i0] = Vec3(0.6 * skin / dt, 0.0, 0.0);
+  CHECK(distributed::contact_ghost_lookahead(*ranks[0].world, i0, false) == doctest::Approx(0.6 * skin));
+  CHECK(contact_ghosts_stale(ranks));
+  // The acceleration enters as the drift's dt²|a|/2.
+  v0[i0] = Vec3::Zero();
+  ranks[0].world->particles.acceleration[i0] = Vec3(0.0, 2.0 * 0.6 * skin / (dt * dt), 0.0);
+  CHECK(distributed::contact_ghost_lookahead(*ranks[0].world, i0, false) == doctest::Approx(0.6 * skin));
+  CHECK(contact_ghosts_stale(ranks));
+  ranks[0].world->particles.acceleration[i0] = Vec3::Zero();
+  CHECK_FALSE(contact_ghosts_stale(ranks));
+  // A non-finite position is stale.
+  y1[i1].z() = std::numeric_limits<double>::quiet_NaN();
+  CHECK(contact_ghosts_stale(ranks));
+}
+
+TEST_CASE("local worlds: contact ghosts: the refresh test's words keep the order of the doubles") {
+  // encode_contact_ghost_motion's map: the minimum of the words is the words of the minimum (low) and
+  // of the maximum (high), for values of either sign, zeros and infinities.
+  const double values[] = {-std::numeric_limits<double>::infinity(), -1e300, -2.5, -1e-310, -0.0, 0.0, 1e-310,
+                           3.0, 1e300, std::numeric_limits<double>::infinity()};
+  for (double a : values)
+    for (double b : values) {
+      distributed::ContactGhostMotion ma, mb;
+      ma.low = Vec3(a, b, 0.0);
+      ma.high = Vec3(a, b, 0.0);
+      mb.low = Vec3(b, a, 1.0);
+      mb.high = Vec3(b, a, -1.0);
+      mb.within_half_skin = false;
+      std::uint64_t wa[distributed::kContactGhostMotionWords], wb[distributed::kContactGhostMotionWords],
+          w[distributed::kContactGhostMotionWords];
+      distributed::encode_contact_ghost_motion(ma, wa);
+      distributed::encode_contact_ghost_motion(mb, wb);
+      for (std::size_t k = 0; k < distributed::kContactGhostMotionWords; ++k) w[k] = std::min(wa[k], wb[k]);
+      const auto got = distributed::decode_contact_ghost_motion(w);
+      const auto want = distributed::combine(ma, mb);
+      CAPTURE(a);
+      CAPTURE(b);
+      CHECK_FALSE(got.within_half_skin);
+      for (int k = 0; k < 3; ++k) {
+        CHECK(got.low[k] == want.low[k]);
+        CHECK(got.high[k] == want.high[k]);
+      }
+      const auto back = distributed::decode_contact_ghost_motion(wa);  // a round trip keeps the bits
+      CHECK(std::memcmp(back.low.data(), ma.low.data(), sizeof(Vec3)) == 0);
+      CHECK(std::memcmp(back.high.data(), ma.high.data(), sizeof(Vec3)) == 0);
+    }
 }
 
 TEST_CASE("local worlds: owned rows are the global rows, ghosts are exactly the far ends outside the range") {
