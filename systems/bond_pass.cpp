@@ -2,6 +2,8 @@
 // k = i→j of particle i, in one visit and from the same positions and dilatations:
 //   1. plasticity     (Eq 11–16, plasticity.cpp):  e^p_ij and the mirror copy e^p_ji, updated in place
 //   2. elastic force  (Eq 2–4, 8, 10, 12, elastic_force.cpp): ½(A_ij + A_ji) n V_j with the new e^p
+//                                                  (ω with the influence ramp; the yield and break
+//                                                  tests below read the unramped δ, bond_rules.hpp)
 //   3. fracture test  (Eq 18–19, fracture.cpp):   on the same e and new e^p, thresholds from the start
 //                                                  of the step; a broken bond still pushed this step
 //   4. damage         (Eq 19, damage.cpp):        φ_i and broken bonds after the breaks
@@ -52,6 +54,7 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
   std::uint32_t* const broken_p = w.state.broken_bonds.data();
   double* const force_p = force.data()->data();
   const auto& anisotropic_family = w.model.anisotropic_family;
+  const InfluenceRamp ramp = influence_ramp(w);
   parallel_for_each(w.particles.count(), [=, &anisotropic_family](std::size_t i) {
     dispatch_row<kAnisotropicWorld>(anisotropic_family, i, [=](auto row_form) {
       constexpr bool kAnisotropic = decltype(row_form)::value, kSharedMetric = decltype(row_form)::shared_metric;
@@ -98,8 +101,8 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
         // elastic_force.cpp. Computed for every lane, then selected: a load inside the condition would
         // be a masked gather.
         const double density = paired_force_density<kAnisotropic, kPlastic>(
-            g, force_weight<kAnisotropic>(side_i.horizon, weighted.inverse_ij),
-            force_weight<kAnisotropic>(side_j.horizon, weighted.inverse_ji), ep_ij,
+            g, force_weight<kAnisotropic>(ramped_horizon(side_i.horizon, r, ramp), weighted.inverse_ij),
+            force_weight<kAnisotropic>(ramped_horizon(side_j.horizon, r, ramp), weighted.inverse_ji), ep_ij,
             ep_ji, end_i.coupling, end_i.b4, ce.coupling[l], ce.b4[l], ce.volume[l]);
         const double c = active ? density : 0.0;
         fx[l] += c * dyx;

@@ -86,12 +86,34 @@ inline SideLengths side_lengths(const AnisotropyMetric& m_i, const AnisotropyMet
   }
 }
 
-// ω_ij = δ_i/ℓ_ij of particle i's bond with reference vector ξ (Eq 5, 17), for code off the bond
-// kernels' hot path (model constants, deformation fits, energy, virial stress).
+// Influence ramp of the `corrected` model (systems/README.md §2.6): a bond side's weight is
+// ω_ij = δ̃_i(|ξ|)/ℓ_ij with δ̃ = min(δ, (δ − |ξ|)/τ), full up to (1 − τ)δ and falling linearly to 0
+// at the horizon. It is the partial volume of a neighbour near the horizon's edge: the force state of a
+// bond is unchanged (yield and break tests read the unramped δ), only how much of the neighbour's
+// volume counts. Without it the lattice's stiffness is a step function of δ (whole shells of
+// neighbours enter at once; assets/report/accuracy.md §12.3). `paper` and `discrete` keep the sharp
+// cut: δ̃ = δ bit for bit. A side slightly past its own horizon (family_build's 1e-9 slack, or the far
+// side of a bond between two horizons) gets weight 0, never a negative one.
+inline constexpr double kInfluenceRampWidth = 0.3;  // τ, as a fraction of δ (§2.6)
+struct InfluenceRamp {
+  bool on = false;
+  double slope = 1.0 / kInfluenceRampWidth;  // 1/τ
+};
+inline InfluenceRamp influence_ramp(const WorldState& w) {
+  return {w.settings.normalization == scene::Normalization::corrected, 1.0 / kInfluenceRampWidth};
+}
+// Branch-free (the bond loops stay SIMD): both forms computed, one selected.
+inline double ramped_horizon(double horizon, double r, const InfluenceRamp& ramp) {
+  const double ramped = std::min(horizon, std::max(horizon - r, 0.0) * ramp.slope);
+  return ramp.on ? ramped : horizon;
+}
+
+// ω_ij = δ̃_i/ℓ_ij of particle i's bond with reference vector ξ (Eq 5, 17, with the ramp above), for
+// code off the bond kernels' hot path (model constants, deformation fits, energy, virial stress).
 inline double bond_weight(const WorldState& w, std::size_t i, const Vec3& xi) {
-  const double l = w.any_anisotropic ? anisotropic_length(w.model.anisotropy_metric[i], xi.x(), xi.y(), xi.z())
-                                      : reference_length(xi);
-  return w.model.horizon[i] / l;
+  const double r = reference_length(xi);
+  const double l = w.any_anisotropic ? anisotropic_length(w.model.anisotropy_metric[i], xi.x(), xi.y(), xi.z()) : r;
+  return ramped_horizon(w.model.horizon[i], r, influence_ramp(w)) / l;
 }
 
 // The mirror j→i of particle i's bond k (binary search in j's sorted row). Setup code and tests only.
@@ -143,7 +165,8 @@ inline double side_force_state(const BondGeometry& g, double weight, double plas
 // Paired force density of a bond, ½(A_ij + A_ji)/|y_j − y_i| · V_j (Eq 2–4, 8, 12 with the plastic
 // extensions; elastic_force.cpp): multiplied by y_j − y_i it is the bond's force on particle i per
 // unit V_i. The side weights come as force_weight forms them: anisotropic, ω_ij and ω_ji; isotropic,
-// δ_i and δ_j, whose common 1/|ξ| enters with g.inverse_length_r (a multiplication, no division).
+// δ̃_i and δ̃_j (ramped_horizon), whose common 1/|ξ| enters with g.inverse_length_r (a multiplication,
+// no division).
 template <bool kAnisotropic>
 inline double force_weight(double horizon, double inverse_length) {
   if constexpr (kAnisotropic) return horizon * inverse_length;

@@ -54,6 +54,27 @@ constexpr double kDepenetrationSpeed = 0.5;
 
 }  // namespace
 
+double collider_lookahead(const WorldState& w, std::size_t i, double drift) {
+  const auto& colliders = w.settings.colliders;
+  const double dt = w.clock.dt;
+  if (colliders.empty()) return drift;
+  // One static plane (a ground): the push out of it is the depth the drift made (≤ D, along the
+  // normal, so |drift + push| ≤ D) plus the earlier depth at kDepenetrationSpeed.
+  if (colliders.size() == 1 && colliders[0].kind == scene::Collider::Kind::plane &&
+      colliders[0].velocity.isZero(0.0) && colliders[0].angular_velocity.isZero(0.0))
+    return drift + kDepenetrationSpeed * dt;
+  // Otherwise each collider may push by the depth of the drift (≤ D) plus its own motion over the
+  // step at the particle and the depenetration cap: a bound, not tight, for several at once.
+  double reach = 2.0 * drift;
+  const double t = w.clock.time + dt;  // where the next step's colliders will be
+  const Vec3& y = w.particles.position[i];
+  for (const auto& c : colliders) {
+    const Vec3 centre = (c.kind == scene::Collider::Kind::plane ? c.point : c.center) + t * c.velocity;
+    reach += dt * (kDepenetrationSpeed + c.velocity.norm() + c.angular_velocity.norm() * (y - centre).norm());
+  }
+  return reach;
+}
+
 SystemDecl collider_system(WorldState& w) {
   return {"colliders", {Component::time, Component::flags, Component::surface_frames},
           {Component::position, Component::velocity, Component::collider_contact}, [&w] {

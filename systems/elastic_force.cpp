@@ -2,7 +2,7 @@
 //   f_i = V_i Σ_j ½ (A_ij + A_ji) n_ij V_j,
 //   A_ij = ω_ij (Λ_ij P_i + b4_i (e_ij − e^p_ij)),   P_i = (a4_i − b4_i β_i) θ_i,
 // which is A_dil + A_dev of Eq 4 and Eq 12 (Eq 8 when e^p = 0) with a4 = 4a, b4 = 4b, β = δ/4.
-// e_ji = e_ij and Λ_ji = Λ_ij, so A_ji needs only P_j, b4_j, δ_j (ω_ji = δ_j/|G_j ξ|, recomputed
+// e_ji = e_ij and Λ_ji = Λ_ij, so A_ji needs only P_j, b4_j, δ_j (ω_ji = δ̃_j/|G_j ξ|, recomputed
 // like |ξ|: bond_rules.hpp) and, with plasticity, e^p_ji (Bonds::plastic_extension_mirror). Each particle gathers its
 // own sum (no scatter, no atomics): the result is independent of thread count, and pair forces are
 // equal and opposite to round-off. The per-bond rule is paired_force_density (bond_rules.hpp), shared
@@ -46,6 +46,7 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec,
   const double* const volume = w.particles.volume.data();
   const double* const b4 = w.model.b4.data();
   const double* const p = coupling.data();
+  const InfluenceRamp ramp = influence_ramp(w);
   double* const out = force.data()->data();
   dispatch_flags([&](auto aniso, auto plastic_on) {
     constexpr bool kAnisotropicWorld = decltype(aniso)::value, kPlastic = decltype(plastic_on)::value;
@@ -65,8 +66,8 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec,
           const bool active = bond_geometry(dyx, dyy, dyz, dxx, dxy, dxz, r, g) & (is_alive != 0);
           const SideLengths weighted = side_lengths<kAnisotropic, kSharedMetric>(
               g_i, bs.template anisotropy<kAnisotropic && !kSharedMetric>(j), r, dxx, dxy, dxz);
-          const double w_ij = force_weight<kAnisotropic>(delta_i, weighted.inverse_ij);
-          const double w_ji = force_weight<kAnisotropic>(bs.horizon[j], weighted.inverse_ji);
+          const double w_ij = force_weight<kAnisotropic>(ramped_horizon(delta_i, r, ramp), weighted.inverse_ij);
+          const double w_ji = force_weight<kAnisotropic>(ramped_horizon(bs.horizon[j], r, ramp), weighted.inverse_ji);
           const double ep_ij = kPlastic ? double(bs.plastic[k]) : 0.0, ep_ji = kPlastic ? double(bs.plastic_mirror[k]) : 0.0;
           const double density = paired_force_density<kAnisotropic, kPlastic>(g, w_ij, w_ji, ep_ij, ep_ji, p_i, b4_i, p[j],
                                                                               b4[j], volume[j]);

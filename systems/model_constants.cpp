@@ -40,10 +40,12 @@ namespace {
 // each. Calibrated against the converged continuum reference (assets/report/accuracy.md, issue 12.2):
 // b's exponent sets torsion, a's the lateral contraction at high ν, c's at low ν; bending needs all
 // three. One exponent for all three cannot fit bending and contraction at once.
+// Calibrated with the influence ramp (bond_rules.hpp, §2.6) on: the ramp changes which bonds a cut
+// family loses, so the exponents of the sharp cut (0.8, 0.285, 0.35) no longer apply.
 struct SurfaceExponents {
-  double bulk = 0.8;        // on a
-  double shear = 0.285;     // on b
-  double dilatation = 0.35; // on c, the θ scale
+  double bulk = 0.7;        // on a
+  double shear = 0.5;       // on b
+  double dilatation = 0.55; // on c, the θ scale
 };
 constexpr SurfaceExponents kSurfaceExponents{};
 }
@@ -187,14 +189,17 @@ void compute_model_constants(WorldState& w) {
     if (mat.yield_stress > 0.0) {
       // A_c = σ_y / S_i with S_i = ½ Σ_j |3 (ξ_a/|ξ|)² − 1|/2 |ξ| V_j averaged over the axes a: the
       // family's own flow-stress sum (§12.2), which is πδ⁴/(3√3) in the continuum (Y = √3σ_y/(10μ)).
+      // A bond's share is weighted by its partial volume δ̃/δ (the influence ramp, §2.6): a yielded
+      // bond carries ±A_c, and the ramp scales how much of its neighbour's volume counts.
       double flow_sum = 0.0;
+      const InfluenceRamp ramp = influence_ramp(w);
       const Vec3& xi = w.particles.reference_position[i];
       for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) {
         const std::uint32_t j = w.bonds.neighbor[k];
         const double r = reference_length(w.particles.reference_position[j] - xi);
         const Vec3 c2 = (w.particles.reference_position[j] - xi).cwiseAbs2() / (r * r);
         flow_sum += (std::abs(3.0 * c2.x() - 1.0) + std::abs(3.0 * c2.y() - 1.0) + std::abs(3.0 * c2.z() - 1.0)) *
-                    r * w.particles.volume[j];
+                    r * w.particles.volume[j] * (ramped_horizon(delta, r, ramp) / delta);
       }
       flow_sum /= 12.0;  // ½ · ½ · (mean of three axes)
       const double a_c = mat.yield_stress / flow_sum;

@@ -27,7 +27,7 @@ void mark_anisotropic_families(WorldState& world);
 // at horizon δ, and the yield extension Y for a yield stress σ_y (Pa). ∞ in gives ∞ out.
 // The continuum relation G = K δ s_c² under-counts what a running crack dissipates by a factor
 // that the notched-bar measurement fixes (§12.1); s_c = √(G_c / (kFractureEnergyFactor · K δ)).
-inline constexpr double kFractureEnergyFactor = 1.39;
+inline constexpr double kFractureEnergyFactor = 1.63;
 double critical_stretch_from_energy(double fracture_energy, double kappa, double mu, double horizon);
 double yield_extension_from_stress(double yield_stress, double mu);
 // Spatially varying strength (strength_field.cpp): scales model.critical_stretch per particle and fills
@@ -141,6 +141,11 @@ SystemDecl kick_begin_system(WorldState& world);
 SystemDecl boundary_condition_system(WorldState& world);
 SystemDecl drift_system(WorldState& world);
 SystemDecl collider_system(WorldState& world);
+// How far particle i may be from its position now after the next step, at most (m): its own drift D
+// (dt|v| + dt²|a|/2, the caller's) plus what the colliders' push-out may add to it (colliders.cpp, from
+// the rule that moves a particle out: the depth the drift made, and earlier depth at no more than
+// kDepenetrationSpeed). The MPI contact-ghost refresh test (engine/distributed) looks ahead with it.
+double collider_lookahead(const WorldState& world, std::size_t i, double drift);
 SystemDecl surface_frame_system(WorldState& world);
 SystemDecl dilatation_system(WorldState& world);
 SystemDecl elastic_force_system(WorldState& world);  // test oracle for bond_pass

@@ -20,7 +20,10 @@ def load(paths):
     for p in paths:
         for line in open(p, encoding="utf-8"):
             if line.startswith("ACCURACY "):
-                rows.append(json.loads(line[len("ACCURACY "):]))
+                # A failed solve prints its residual as C++'s `nan` (JSON: NaN); it is left out.
+                row = json.loads(line[len("ACCURACY "):].replace(": nan", ": NaN"))
+                if not math.isnan(row.get("residual", 0.0)):
+                    rows.append(row)
     return rows
 
 

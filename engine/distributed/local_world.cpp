@@ -332,10 +332,6 @@ void set_contact_ghosts(WorldState& local, LocalLayout& layout,
 
 namespace {
 
-// colliders.cpp's kDepenetrationSpeed: the fastest a particle found inside a collider at the start of
-// a step is moved out, m/s (a look-ahead term; keep the two equal).
-constexpr double kDepenetrationSpeed = 0.5;
-
 // A double as a uint64 in the same order (for the MIN reduction): non-negative values get the sign
 // bit set, negative ones are complemented (so a larger magnitude comes lower). NaN never reaches it.
 std::uint64_t ordered_bits(double x) {
@@ -354,22 +350,8 @@ double contact_ghost_lookahead(const WorldState& local, std::uint32_t i, bool co
   const double dt = local.clock.dt;
   const auto& p = local.particles;
   const double v = p.velocity[i].norm(), a = p.acceleration[i].norm();
-  const double drift = dt * (v + 0.5 * dt * a);  // D_i
-  const auto& colliders = local.settings.colliders;
-  double reach = drift;
-  if (colliders.size() == 1 && colliders[0].kind == scene::Collider::Kind::plane &&
-      colliders[0].velocity.isZero(0.0) && colliders[0].angular_velocity.isZero(0.0)) {
-    reach = drift + kDepenetrationSpeed * dt;
-  } else if (!colliders.empty()) {
-    reach = 2.0 * drift;
-    const double t = local.clock.time + dt;  // where the next step's colliders will be
-    for (const auto& c : colliders) {
-      const Vec3 centre = (c.kind == scene::Collider::Kind::plane ? c.point : c.center) + t * c.velocity;
-      reach += dt * (kDepenetrationSpeed + c.velocity.norm() + c.angular_velocity.norm() * (p.position[i] - centre).norm());
-    }
-  }
-  if (constrained) reach = std::max(reach, 2.0 * dt * (v + dt * a));
-  return reach;
+  const double reach = systems::collider_lookahead(local, i, dt * (v + 0.5 * dt * a));  // D_i and the push-out
+  return constrained ? std::max(reach, 2.0 * dt * (v + dt * a)) : reach;
 }
 
 ContactGhostMotion contact_ghost_motion(const WorldState& local, const LocalLayout& layout) {
@@ -394,9 +376,15 @@ ContactGhostMotion contact_ghost_motion(const WorldState& local, const LocalLayo
     out.low = out.low.cwiseMin(d - Vec3::Constant(ahead));
     out.high = out.high.cwiseMax(d + Vec3::Constant(ahead));
   };
-  for (std::uint32_t m = 0; m < layout.owned_count; ++m) measure(layout.owned_begin + m, false);
-  // Boundary conditions' particles (owned, local indices) again, with their wider look-ahead.
-  for (std::uint32_t i : local.boundary.constrained) measure(i, true);
+  // Boundary conditions' particles (owned, local indices; the list is sorted) take their wider
+  // look-ahead: one cursor walks the list beside the owned range, so each particle is measured once.
+  const auto& constrained = local.boundary.constrained;
+  std::size_t next = 0;
+  for (std::uint32_t m = 0; m < layout.owned_count; ++m) {
+    const std::uint32_t i = layout.owned_begin + m;
+    while (next < constrained.size() && constrained[next] < i) ++next;
+    measure(i, next < constrained.size() && constrained[next] == i);
+  }
   if (!finite) return unbounded();  // NaN: stale (the health check reports it)
   return out;
 }

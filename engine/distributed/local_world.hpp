@@ -60,7 +60,8 @@
 //   the drift: y += dt·v', v' = e·v + (dt/2)·a with the damping factor e ≤ 1, so at most
 //     D_i = dt|v| + dt²|a|/2. Forces (contact, projectiles, loads) act through a and enter the step
 //     after; nothing else moves a particle (projectiles move themselves only).
-//   colliders: none: L_i = D_i. One static plane (most scenes: a ground): its depth is linear in the
+//   colliders (systems::collider_lookahead in colliders.cpp, beside the push-out rule it bounds):
+//     none: L_i = D_i. One static plane (most scenes: a ground): its depth is linear in the
 //     particle's position (the centre, the faces placed by the frame of the last step and the sphere
 //     of reach all move with it and meet the plane along the same normal), so the push-out, along the
 //     normal, at most takes back the drift's inward part, beyond which the depth the particle had

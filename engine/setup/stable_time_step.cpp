@@ -102,27 +102,30 @@ double stable_time_step_bound(const WorldState& w) {
     s[i] = s_i;
   };
   if (!w.any_anisotropic) {
-    // Isotropic: ω_ij = δ_i/|ξ|, so s_i = δ_i Σ_j V_j/|ξ| and Σ_j q_j ω_ji = Σ_j q_j δ_j/|ξ|, each a
-    // lane-strided pass (SIMD square roots and divisions; bond_rules.hpp's for_each_bond_lane, sums in a
-    // fixed lane order). This bound was 0.5 s of a 9e5-particle set-up as a scalar loop.
+    // Isotropic: ω_ij = δ̃_i(|ξ|)/|ξ| (δ̃ = δ without the `corrected` model's influence ramp,
+    // bond_rules.hpp), so s_i = Σ_j δ̃_i V_j/|ξ| and Σ_j q_j ω_ji = Σ_j q_j δ̃_j/|ξ|, each a lane-strided
+    // pass (SIMD square roots and divisions; bond_rules.hpp's for_each_bond_lane, sums in a fixed lane
+    // order). This bound was 0.5 s of a 9e5-particle set-up as a scalar loop. The ramp is taken in:
+    // with δ/|ξ| instead it stays a bound but looser, enough to send a scene whose dt sits near the
+    // limit to the eigenvalue estimate (`perifx check` of glass_wall_5m ran for over 17 minutes).
     const auto bs = systems::bond_streams(w, x);
-    // Σ_j value[j]/|ξ_ij| over i's bonds.
-    auto over_length = [&](std::size_t i, const double* value) {
+    const systems::InfluenceRamp ramp = systems::influence_ramp(w);
+    // Σ_j value[j] δ̃/|ξ_ij| over i's bonds, δ̃ of i's horizon (far = false) or of j's (far = true).
+    auto over_length = [&](std::size_t i, const double* value, bool far) {
       const auto o = bs.origin(i);
+      const double delta_i = bs.horizon[i];
       double lanes[systems::kBondLanes] = {};
       auto lane = [=, &lanes](std::size_t k, int l, std::uint64_t) {
         const std::size_t j = bs.neighbor[k];
         const double r = systems::reference_length(bs.x[3 * j] - o.xx, bs.x[3 * j + 1] - o.xy, bs.x[3 * j + 2] - o.xz);
-        lanes[l] += value[j] / r;
+        lanes[l] += value[j] * systems::ramped_horizon(far ? bs.horizon[j] : delta_i, r, ramp) / r;
       };
       systems::for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
       return systems::sum_lanes(lanes);
     };
-    parallel_for_each(n, [&](std::size_t i) { finish_q(i, md.horizon[i] * over_length(i, vol.data())); }, 256);
-    std::vector<double> q_horizon(n);  // q_j δ_j
-    parallel_for_each(n, [&](std::size_t i) { q_horizon[i] = q[i] * md.horizon[i]; }, 4096);
+    parallel_for_each(n, [&](std::size_t i) { finish_q(i, over_length(i, vol.data(), false)); }, 256);
     parallel_for_each(n, [&](std::size_t i) {
-      bound[i] = (q[i] * s[i] + over_length(i, q_horizon.data()) * vol[i]) / w.particles.mass[i];
+      bound[i] = (q[i] * s[i] + over_length(i, q.data(), true) * vol[i]) / w.particles.mass[i];
     }, 256);
   } else {
     parallel_for_each(n, [&](std::size_t i) {

@@ -38,7 +38,9 @@ BondState bond_state(const WorldState& w, const std::vector<Vec3>& y, std::size_
   const double r = xi.norm();
   const double e = dy.norm() - r;
   const double lambda = dy.dot(xi) / (dy.norm() * r);
-  return {systems::bond_weight(w, i, xi) * w.model.b4[i], e - w.model.beta[i] * lambda * theta[i]};
+  // The yield test reads the bond's own weight δ_i/|ξ| (isotropic here), not the partial-volume
+  // ramp that `corrected` puts on the force (bond_rules.hpp, ramped_horizon).
+  return {w.model.horizon[i] / r * w.model.b4[i], e - w.model.beta[i] * lambda * theta[i]};
 }
 
 void plastic_update(WorldState& w, const std::vector<Vec3>& y) {
