@@ -92,8 +92,8 @@ inline SideLengths side_lengths(const AnisotropyMetric& m_i, const AnisotropyMet
 // bond is unchanged (yield and break tests read the unramped δ), only how much of the neighbour's
 // volume counts. Without it the lattice's stiffness is a step function of δ (whole shells of
 // neighbours enter at once; assets/report/accuracy.md §12.3). `paper` and `discrete` keep the sharp
-// cut: δ̃ = δ bit for bit. A side slightly past its own horizon (family_build's 1e-9 slack, or the far
-// side of a bond between two horizons) gets weight 0, never a negative one.
+// cut: δ̃ = δ bit for bit. With the ramp, a side slightly past its own horizon (family_build's 1e-9
+// slack, or the far side of a bond between two horizons) gets weight 0, never a negative one.
 inline constexpr double kInfluenceRampWidth = 0.3;  // τ, as a fraction of δ (§2.6)
 // δ̃ = min(δ, max(δ − r, floor) · slope): with the ramp floor 0 and slope 1/τ; without it floor +∞,
 // which gives min(δ, ∞) = δ exactly. Pure arithmetic on two loop-invariant numbers: a select on a
