@@ -113,6 +113,10 @@ std::uint32_t alive_shape_tensor(const WorldState& w, std::size_t p, Mat3& K) {
   double xx[kBondLanes] = {}, yy[kBondLanes] = {}, zz[kBondLanes] = {}, xy[kBondLanes] = {}, xz[kBondLanes] = {},
          yz[kBondLanes] = {};
   double count[kBondLanes] = {};  // exact: integers far below 2^53
+  // ω = δ̃_p/ℓ with the influence ramp (bond_rules.hpp), the weight family_sums uses through bond_weight,
+  // so the test judges the K the fit will use.
+  const double delta = w.model.horizon[p];
+  const InfluenceRamp ramp = influence_ramp(w);
   // A dead bond's weight is multiplied by 0.0, not selected away: a select around the gather of V_j
   // kept GCC 12 from vectorizing the loop (it ran scalar, 7 % of a 9e5-particle set-up's CPU). V_j/ℓ is
   // finite and positive, so the product is +0.0 and K has the same bits.
@@ -121,16 +125,15 @@ std::uint32_t alive_shape_tensor(const WorldState& w, std::size_t p, Mat3& K) {
     const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
     const double r = reference_length(dxx, dxy, dxz);
     const double alive = static_cast<double>(is_alive != 0);
-    const double weight = volume[j] / weighted_length<kAnisotropic>(g_p, r, dxx, dxy, dxz) * alive;
+    const double weight =
+        volume[j] * ramped_horizon(delta, r, ramp) / weighted_length<kAnisotropic>(g_p, r, dxx, dxy, dxz) * alive;
     xx[l] += weight * dxx * dxx, yy[l] += weight * dxy * dxy, zz[l] += weight * dxz * dxz;
     xy[l] += weight * dxx * dxy, xz[l] += weight * dxx * dxz, yz[l] += weight * dxy * dxz;
     count[l] += alive;
   };
   for_each_bond_lane(bs.offsets[p], bs.offsets[p + 1], bs.alive, lane, [](std::size_t, int) {});
-  const double delta = w.model.horizon[p];
   K << sum_lanes(xx), sum_lanes(xy), sum_lanes(xz), sum_lanes(xy), sum_lanes(yy), sum_lanes(yz), sum_lanes(xz),
       sum_lanes(yz), sum_lanes(zz);
-  K *= delta;
   return static_cast<std::uint32_t>(sum_lanes(count));
 }
 

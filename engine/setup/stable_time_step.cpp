@@ -10,6 +10,7 @@
 #include <Spectra/SymEigsSolver.h>
 
 #include <cmath>
+#include <type_traits>
 
 #include "setup/world_setup.hpp"
 #include "systems/bond_rules.hpp"
@@ -110,22 +111,26 @@ double stable_time_step_bound(const WorldState& w) {
     // limit to the eigenvalue estimate (`perifx check` of glass_wall_5m ran for over 17 minutes).
     const auto bs = systems::bond_streams(w, x);
     const systems::InfluenceRamp ramp = systems::influence_ramp(w);
-    // Σ_j value[j] δ̃/|ξ_ij| over i's bonds, δ̃ of i's horizon (far = false) or of j's (far = true).
-    auto over_length = [&](std::size_t i, const double* value, bool far) {
+    // Σ_j value[j] δ̃/|ξ_ij| over i's bonds, δ̃ of i's horizon (far false) or of j's (far true). `far` is
+    // a compile-time constant: a run-time select around the gather of δ_j keeps GCC 12 from
+    // vectorizing the loop (mesh_rotations.cpp saw the same).
+    auto over_length = [&](std::size_t i, const double* value, auto far) {
       const auto o = bs.origin(i);
       const double delta_i = bs.horizon[i];
       double lanes[systems::kBondLanes] = {};
       auto lane = [=, &lanes](std::size_t k, int l, std::uint64_t) {
         const std::size_t j = bs.neighbor[k];
         const double r = systems::reference_length(bs.x[3 * j] - o.xx, bs.x[3 * j + 1] - o.xy, bs.x[3 * j + 2] - o.xz);
-        lanes[l] += value[j] * systems::ramped_horizon(far ? bs.horizon[j] : delta_i, r, ramp) / r;
+        double horizon = delta_i;
+        if constexpr (decltype(far)::value) horizon = bs.horizon[j];
+        lanes[l] += value[j] * systems::ramped_horizon(horizon, r, ramp) / r;
       };
       systems::for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
       return systems::sum_lanes(lanes);
     };
-    parallel_for_each(n, [&](std::size_t i) { finish_q(i, over_length(i, vol.data(), false)); }, 256);
+    parallel_for_each(n, [&](std::size_t i) { finish_q(i, over_length(i, vol.data(), std::false_type{})); }, 256);
     parallel_for_each(n, [&](std::size_t i) {
-      bound[i] = (q[i] * s[i] + over_length(i, q.data(), true) * vol[i]) / w.particles.mass[i];
+      bound[i] = (q[i] * s[i] + over_length(i, q.data(), std::true_type{}) * vol[i]) / w.particles.mass[i];
     }, 256);
   } else {
     parallel_for_each(n, [&](std::size_t i) {
