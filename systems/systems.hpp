@@ -27,7 +27,7 @@ void mark_anisotropic_families(WorldState& world);
 // at horizon δ, and the yield extension Y for a yield stress σ_y (Pa). ∞ in gives ∞ out.
 // The continuum relation G = K δ s_c² under-counts what a running crack dissipates by a factor
 // that the notched-bar measurement fixes (§12.1); s_c = √(G_c / (kFractureEnergyFactor · K δ)).
-inline constexpr double kFractureEnergyFactor = 1.63;
+inline constexpr double kFractureEnergyFactor = 1.675;
 double critical_stretch_from_energy(double fracture_energy, double kappa, double mu, double horizon);
 double yield_extension_from_stress(double yield_stress, double mu);
 // Spatially varying strength (strength_field.cpp): scales model.critical_stretch per particle and fills

@@ -22,8 +22,12 @@ def load(paths):
             if line.startswith("ACCURACY "):
                 # A failed solve prints its residual as C++'s `nan` (JSON: NaN); it is left out.
                 row = json.loads(line[len("ACCURACY "):].replace(": nan", ": NaN"))
-                if not math.isnan(row.get("residual", 0.0)):
-                    rows.append(row)
+                if math.isnan(row.get("residual", 0.0)):
+                    continue
+                # A jittered mesh (PERIFX_ACCURACY_JITTER) is its own series beside the regular lattice.
+                if row.get("jitter", 0.0) > 0.0:
+                    row["normalization"] += f" jitter {row['jitter']:g}"
+                rows.append(row)
     return rows
 
 

@@ -96,7 +96,9 @@ Key build_spec() {
           .gt(0).or_inf().def_text("\"inf\" (or from `yield_stress`)"),
       number("yield_stress", "Yield stress σ_y, Pa (uniaxial tension flow stress); perifx derives the yield "
                              "parameter for each body's horizon, so the material yields at σ_y at any "
-                             "resolution (systems/README.md §12). \"inf\" = purely elastic. Not with `yield_energy`.")
+                             "resolution (systems/README.md §12). The paper's per-bond law yields gradually, "
+                             "so its 0.2 % offset yield stress is lower: 0.98 σ_y at steel's σ_y/E, 0.93 at "
+                             "aluminium's (§12.2). \"inf\" = purely elastic. Not with `yield_energy`.")
           .gt(0).or_inf(),
       number("plastic_cap_ratio", "Plastic cap γ/|ξ| (Eq 16); \"inf\" = no cap.").ge(0).or_inf()
           .def_text("0 (no plastic flow), or \"inf\" when the yield comes from `yield_stress` or a preset"),

@@ -205,16 +205,20 @@ struct PdResult {
   std::size_t particles = 0;
 };
 
-inline scene::Scene pd_scene(const Material& mat, int cells_deep, scene::Normalization norm, double horizon_factor) {
+// jitter: the structured mesh's vertex offset (the default of breakable bodies is 0.3), 0 = regular.
+inline scene::Scene pd_scene(const Material& mat, int cells_deep, scene::Normalization norm, double horizon_factor,
+                             double jitter = 0.0) {
   auto sc = test::box_scene(Vec3(kLength, kDepth, kDepth), kDepth / cells_deep, mat.kappa, mat.mu, mat.density);
   sc.normalization = norm;
   sc.bodies[0].horizon_factor = horizon_factor;
+  sc.bodies[0].geometry.jitter = jitter;
   return sc;
 }
 
 inline PdResult solve_pd(Problem problem, const Material& mat, int cells_deep, scene::Normalization norm,
-                         double horizon_factor = 1.45, double tolerance = 1e-8, int max_iterations = 200000) {
-  World world(pd_scene(mat, cells_deep, norm, horizon_factor));
+                         double horizon_factor = 1.45, double tolerance = 1e-8, int max_iterations = 200000,
+                         double jitter = 0.0) {
+  World world(pd_scene(mat, cells_deep, norm, horizon_factor, jitter));
   const WorldState& w = world.state();
   const auto xs = world.reference_positions();
   const std::vector<Vec3> x(xs.begin(), xs.end());

@@ -128,6 +128,9 @@ TEST_CASE("accuracy: PD static responses (PERIFX_LONG_TESTS=1)" * doctest::skip(
   const auto norms = env_list("PERIFX_ACCURACY_NORMS", "paper,discrete,corrected");
   const auto problems = env_list("PERIFX_ACCURACY_PROBLEMS", "cantilever,torsion,stretch");
   const auto horizons = env_list("PERIFX_ACCURACY_HORIZON", "1.45");
+  // PERIFX_ACCURACY_JITTER: the mesh's vertex offset (0.3 is what breakable bodies get by default);
+  // its rows carry a "jitter" key, which accuracy_static.py keeps apart from the regular lattice's.
+  const double jitter = std::stod(env_list("PERIFX_ACCURACY_JITTER", "0").front());
   for (const auto& c : cells)
     for (const auto& nm : norms)
       for (const auto& hz : horizons)
@@ -139,8 +142,9 @@ TEST_CASE("accuracy: PD static responses (PERIFX_LONG_TESTS=1)" * doctest::skip(
           for (const std::string& nu_text : p == Problem::stretch ? env_list("PERIFX_ACCURACY_NU", "0.1,0.25,0.4")
                                                                   : std::vector<std::string>{"0.248"}) {
             const Material mat = p == Problem::stretch ? with_poisson(std::stod(nu_text)) : Material{};
-            const PdResult r = solve_pd(p, mat, std::stoi(c), norm, std::stod(hz));
+            const PdResult r = solve_pd(p, mat, std::stoi(c), norm, std::stod(hz), 1e-8, 200000, jitter);
             std::cout << "ACCURACY {\"solver\": \"pd\", \"normalization\": \"" << nm << "\", \"horizon\": " << hz
+                      << (jitter > 0.0 ? ", \"jitter\": " + std::to_string(jitter) : std::string())
                       << ", \"problem\": \"" << pn << "\", \"nu\": " << nu_text << ", \"cells\": " << c
                       << ", \"value\": " << std::setprecision(12) << value(p, r.measure)
                       << ", \"iterations\": " << r.iterations << ", \"residual\": " << r.residual
