@@ -30,6 +30,7 @@
 #include "perifx/world.hpp"
 #include "runner.hpp"
 #include "setup/preflight.hpp"
+#include "systems/yield_law.hpp"
 #include "tools/compare.hpp"
 #include "tools/crack_stats.hpp"
 #include "tools/render/command.hpp"
@@ -304,6 +305,22 @@ int cmd_info(const Args& a) {
   for (const auto& b : world.bodies())
     std::cout << "body             " << b.name << ": " << b.particle_count << " particles, lambda " << b.mean_edge_length
               << " m, horizon " << b.horizon << " m\n";
+  // Each material in physical units, and what its yield stress means for the per-bond law (§12.2).
+  for (const auto& m : world.scene().materials) {
+    const double kappa = m.bulk_modulus, mu = m.shear_modulus;
+    std::ostringstream line;
+    line.precision(4);
+    line << "material         " << m.name << (m.preset.empty() ? "" : " (preset " + m.preset + ")") << ": density "
+         << m.density << " kg/m^3, E " << 9.0 * kappa * mu / (3.0 * kappa + mu) << " Pa, nu "
+         << (3.0 * kappa - 2.0 * mu) / (2.0 * (3.0 * kappa + mu));
+    if (m.fracture_energy > 0.0) line << ", fracture_energy " << m.fracture_energy << " J/m^2";
+    else if (std::isfinite(m.critical_stretch)) line << ", critical_stretch " << m.critical_stretch;
+    if (m.yield_stress > 0.0 && std::isfinite(m.yield_stress))
+      line << ", yield_stress " << m.yield_stress << " Pa (the flow stress; 0.2 % offset yield "
+           << perifx::systems::offset_yield_ratio(kappa, mu, m.yield_stress) << " of it)";
+    else if (std::isfinite(m.yield_energy)) line << ", yield_energy " << m.yield_energy;
+    std::cout << line.str() << "\n";
+  }
   std::cout << "memory           particles " << human_bytes(double(mem.particle_bytes)) << " ("
             << mem.bytes_per_particle << " B each), bonds " << human_bytes(double(mem.bond_bytes)) << " ("
             << mem.bytes_per_bond << " B each), mesh " << human_bytes(double(mem.mesh_bytes)) << ", contact "

@@ -11,6 +11,7 @@
 #include <iostream>
 
 #include "support.hpp"
+#include "systems/yield_law.hpp"
 
 using namespace perifx;
 
@@ -32,72 +33,7 @@ std::size_t central(const World& world) {
   return best;
 }
 
-// The per-bond yield law (Eq 12–15: each bond's deviatoric force capped at ±A_c) read in the
-// continuum, for a bar in uniaxial tension: bonds in every direction n of a full, isotropic family,
-// each with the deviatoric strain s(n) = n·ε_d·n − p(n) (p its plastic part) capped at ±s_c; the
-// stress is κ tr ε I + (15μ/4π) ∫ s(n) n⊗n dΩ (2μ ε_d while elastic), the lateral strain keeps
-// σ_yy = σ_zz = 0. Bonds yield one direction at a time, the axial ones first at about half the flow
-// stress, so the curve has no sharp knee: this returns its stress at the given plastic offset (0.002
-// for the engineering yield stress), as a fraction of the full-flow stress σ_p = 10 μ s_c/√3 (every
-// bond at ±s_c, the stress perifx's A_c = σ_y/S_i is set to).
-double continuum_offset_yield(double kappa, double mu, double flow_stress, double offset) {
-  const double youngs = test::youngs(kappa, mu), eps_y = flow_stress / youngs;
-  const double s_c = std::sqrt(3.0) * flow_stress / (10.0 * mu);
-  constexpr int kDirections = 2000;  // midpoints in c = cos(angle to the axis), dΩ = 2π dc
-  std::vector<double> c(kDirections), p(kDirections, 0.0);
-  for (int k = 0; k < kDirections; ++k) c[k] = -1.0 + (k + 0.5) * 2.0 / kDirections;
-  const double dc = 2.0 / kDirections, pref = 7.5 * mu * dc;  // (15μ/4π)·2π·dc
-  auto stresses = [&](double exx, double eyy, std::vector<double>* plastic) {
-    const double tr = exx + 2.0 * eyy, a = exx - tr / 3.0, b = eyy - tr / 3.0;
-    double sxx = kappa * tr, syy = kappa * tr;
-    for (int k = 0; k < kDirections; ++k) {
-      const double trial = a * c[k] * c[k] + b * (1.0 - c[k] * c[k]) - p[k];
-      const double s = std::clamp(trial, -s_c, s_c);
-      if (plastic) (*plastic)[k] += trial - s;
-      sxx += pref * s * c[k] * c[k];
-      syy += pref * s * 0.5 * (1.0 - c[k] * c[k]);
-    }
-    return std::pair{sxx, syy};
-  };
-  double eyy = 0.0, prev_gap = 0.0, prev_stress = 0.0;
-  const int increments = 3000;
-  for (int n = 1; n <= increments; ++n) {
-    const double exx = (4.0 * eps_y + 2.0 * offset) * n / increments;
-    for (int it = 0; it < 20; ++it) {  // secant on the lateral strain: σ_yy = 0
-      const double h = 1e-6 * eps_y, f0 = stresses(exx, eyy, nullptr).second;
-      const double f1 = stresses(exx, eyy + h, nullptr).second;
-      eyy -= f0 * h / (f1 - f0);
-      if (std::abs(f0) < 1e-12 * flow_stress) break;
-    }
-    const double sxx = stresses(exx, eyy, &p).first;
-    const double gap = sxx - youngs * (exx - offset);
-    if (gap <= 0.0) {
-      const double f = prev_gap / (prev_gap - gap);
-      return (prev_stress + f * (sxx - prev_stress)) / flow_stress;
-    }
-    prev_gap = gap, prev_stress = sxx;
-  }
-  return std::nan("");
-}
-
 }  // namespace
-
-TEST_CASE("yield_stress: the continuum per-bond law in tension: linear to half sigma_y, 0.2 % offset yield below it, flow at it") {
-  // Aluminium's ratio σ_y/E = 0.4 % (the long bar test's material) and steel's 0.125 %: the engineering
-  // yield stress of the per-bond law depends on how far 0.2 % is along its gradual knee.
-  const double kappa = 3.3e6, mu = 2.0e6, youngs = test::youngs(kappa, mu);
-  const double aluminium = continuum_offset_yield(kappa, mu, 0.004 * youngs, 0.002);
-  const double steel = continuum_offset_yield(kappa, mu, 0.00125 * youngs, 0.002);
-  MESSAGE("continuum per-bond law: 0.2 % offset yield / flow stress " << aluminium << " at eps_y 0.4 %, " << steel
-                                                                       << " at 0.125 %");
-  // Python model of the same law (assets/report/yield_knee.py, 4001 directions): 0.9329 and 0.9829.
-  CHECK(aluminium == doctest::Approx(0.9329).epsilon(0.002));
-  CHECK(steel == doctest::Approx(0.9829).epsilon(0.002));
-  // A tiny offset reads the first bonds' yield: the axial bonds reach s_c at (3/2)·s_c/(1 + ν) strain.
-  CHECK(continuum_offset_yield(kappa, mu, 0.004 * youngs, 1e-7) < 0.6);
-  // A large offset reads the full flow stress.
-  CHECK(continuum_offset_yield(kappa, mu, 0.004 * youngs, 0.05) == doctest::Approx(1.0).epsilon(0.01));
-}
 
 TEST_CASE("fracture_energy: s_c = sqrt(G_c / (K delta)) per particle, K = 5mu + 81/80 (kappa - 5mu/3)") {
   const double g_c = 30.0;
@@ -363,9 +299,9 @@ TEST_CASE("yield_stress: a bar in tension flows at sigma_y at three resolutions 
     // Issue 12: the bar yields at σ_y within 5 %. σ_y is the flow stress (what every bond at ±A_c
     // carries, systems/README.md §12.2): the bar flows at it at 5 and 10 ε_y, at every resolution.
     // The paper's per-bond law yields gradually (axial bonds first, at half σ_y), so its 0.2 % offset
-    // yield stress is below σ_y by a factor the law itself sets (0.933 for this σ_y/E, computed above):
+    // yield stress is below σ_y by a factor the law itself sets (0.933 for this σ_y/E, yield_law.hpp):
     // the bar's must be that value within 5 %.
-    const double knee = continuum_offset_yield(mat.bulk_modulus, mat.shear_modulus, sigma_y, 0.002);
+    const double knee = systems::offset_yield_ratio(mat.bulk_modulus, mat.shear_modulus, sigma_y);
     CHECK(stress_at(5 * eps_y) == doctest::Approx(sigma_y).epsilon(0.05));
     CHECK(stress_at(10 * eps_y) == doctest::Approx(sigma_y).epsilon(0.05));
     CHECK(offset_yield == doctest::Approx(knee * sigma_y).epsilon(0.05));

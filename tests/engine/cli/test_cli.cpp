@@ -15,6 +15,7 @@
 
 #include "cli_support.hpp"
 #include "file_support.hpp"
+#include "systems/yield_law.hpp"
 
 namespace fs = std::filesystem;
 
@@ -163,6 +164,29 @@ TEST_CASE("cli: summary.json is valid JSON for a scene name with quotes and back
   const auto summary = nlohmann::json::parse(slurp(dir / "out" / "summary.json"));
   CHECK(summary.at("scene").get<std::string>() == "a \"quoted\" \\ name");
   CHECK(summary.at("frames").get<int>() == 1);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("cli: info prints each material in physical units, and what its yield stress means") {
+  const fs::path dir = temp_dir("info_materials");
+  // σ_y/E = 0.4 %: the per-bond law's 0.2 % offset yield is 0.933 of the flow stress (systems/yield_law.hpp).
+  const fs::path scene = write(dir, "scene.json", R"({
+    "time": { "dt": 1e-5, "duration": 0.01, "frame_rate": 100 },
+    "materials": { "metal": { "density": 2700, "youngs_modulus": 5e6, "poisson_ratio": 0.25, "yield_stress": 2e4,
+                              "fracture_energy": 30 } },
+    "bodies": [ { "material": "metal", "geometry": { "type": "box", "size": [0.1, 0.05, 0.05], "edge_length": 0.025 } } ]
+  })");
+  const auto r = run_cli("info " + scene.string());
+  REQUIRE_MESSAGE(r.code == 0, r.output);
+  // κ = E/(3(1 − 2ν)), μ = E/(2(1 + ν)); the ratio printed to 4 digits (0.9328 at ν = 0.25).
+  std::ostringstream ratio;
+  ratio.precision(4);
+  ratio << perifx::systems::offset_yield_ratio(5e6 / 1.5, 5e6 / 2.5, 2e4);
+  CHECK(ratio.str() == "0.9328");
+  CHECK_MESSAGE(r.output.find("material         metal: density 2700 kg/m^3, E 5e+06 Pa, nu 0.25, fracture_energy 30 "
+                              "J/m^2, yield_stress 2e+04 Pa (the flow stress; 0.2 % offset yield " + ratio.str() + " of it)") !=
+                    std::string::npos,
+                r.output);
   fs::remove_all(dir);
 }
 
