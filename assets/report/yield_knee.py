@@ -11,7 +11,8 @@ full-flow stress, every bond at ±s_c with the sign of 3cos²−1, is σ_p = 10 
 A_c from (systems/model_constants.cpp). Bonds reach the cap one direction at a time, the axial ones
 first, so the curve bends from about σ_p/2 and has no sharp yield point. The script prints, against
 σ_p/E, the stress at the engineering 0.2 % plastic offset as a fraction of σ_p, and the flow stress at
-2.5, 5 and 10 times σ_p/E. tests/systems/test_physical_parameters.cpp computes the same law in C++.
+2.5, 5 and 10 times σ_p/E. systems/yield_law.cpp computes the same law in C++ (offset_yield_ratio,
+which `perifx info` prints); tests/systems/test_yield_law.cpp checks it against this script's numbers.
 """
 import sys
 
