@@ -125,18 +125,34 @@ void compute_model_constants(WorldState& w) {
   // `corrected`: the discrete constants a, b, c scaled by powers of min(1, m_i / m_body), m_body the
   // weighted volume of a full interior family of the particle's body (below), §2.4.
   const bool corrected = w.settings.normalization == scene::Normalization::corrected;
-  std::vector<double> body_m;
-  if (corrected) {
-    std::vector<double> m_i(n, 0.0);
+  // The discrete normalization's family sums, in one pass over every family (read again below by
+  // the fill reference and the constants): with wv = ω |ξ| V_j per bond, m = Σ wv, q = Σ wv |ξ| and the
+  // shear moment Σ wv (ξx²ξy² + ξy²ξz² + ξz²ξx²)/(3|ξ|³) (systems/README.md §2.1). Shape: n each.
+  std::vector<double> family_m, family_q, family_shear;
+  if (discrete) {
+    family_m.assign(n, 0.0);
+    family_q.assign(n, 0.0);
+    family_shear.assign(n, 0.0);
     parallel_for_each(n, [&](std::size_t i) {
-      double m = 0.0;
+      double m = 0.0, q = 0.0, shear_moment = 0.0;
+      const Vec3& xi = w.particles.reference_position[i];
       for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) {
         const std::uint32_t j = w.bonds.neighbor[k];
-        const Vec3 xi = w.particles.reference_position[j] - w.particles.reference_position[i];
-        m += bond_weight(w, i, xi) * reference_length(xi) * w.particles.volume[j];
+        const Vec3 bond = w.particles.reference_position[j] - xi;
+        const double r = reference_length(bond);
+        const double wv = bond_weight(w, i, bond) * r * w.particles.volume[j];
+        m += wv;
+        q += wv * r;
+        const Vec3 s2 = bond.cwiseAbs2();
+        shear_moment += wv * (s2.x() * s2.y() + s2.y() * s2.z() + s2.z() * s2.x()) / (3.0 * r * r * r);
       }
-      m_i[i] = m;
+      family_m[i] = m;
+      family_q[i] = q;
+      family_shear[i] = shear_moment;
     });
+  }
+  std::vector<double> body_m;
+  if (corrected) {
     // The reference is the largest *family-averaged* m of the body, not the largest m: on a jittered
     // or unstructured mesh the interior's m_i scatter by a few percent (random tet volumes and
     // distances, 1.4 % s.d. at jitter 0.3), so the largest single m sits several s.d. above a typical
@@ -150,10 +166,10 @@ void compute_model_constants(WorldState& w) {
         const std::uint32_t j = w.bonds.neighbor[k];
         const Vec3 xi = w.particles.reference_position[j] - w.particles.reference_position[i];
         const double wv = bond_weight(w, i, xi) * w.particles.volume[j];
-        sum += wv * m_i[j];
+        sum += wv * family_m[j];
         weight += wv;
       }
-      m_smooth[i] = weight > 0.0 ? sum / weight : m_i[i];
+      m_smooth[i] = weight > 0.0 ? sum / weight : family_m[i];
     });
     for (std::size_t i = 0; i < n; ++i) {
       const std::size_t b = w.particles.body_id[i];
@@ -167,18 +183,7 @@ void compute_model_constants(WorldState& w) {
     const double kappa = mat.bulk_modulus, mu = mat.shear_modulus;
     double scale, a, b, beta, fill = 1.0;
     if (discrete) {
-      double m = 0.0, q = 0.0, shear_moment = 0.0;
-      const Vec3& xi = w.particles.reference_position[i];
-      for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k) {
-        const std::uint32_t j = w.bonds.neighbor[k];
-        const Vec3 bond = w.particles.reference_position[j] - xi;
-        const double r = reference_length(bond);
-        const double wv = bond_weight(w, i, bond) * r * w.particles.volume[j];
-        m += wv;
-        q += wv * r;
-        const Vec3 s2 = (w.particles.reference_position[j] - xi).cwiseAbs2();
-        shear_moment += wv * (s2.x() * s2.y() + s2.y() * s2.z() + s2.z() * s2.x()) / (3.0 * r * r * r);
-      }
+      const double m = family_m[i], q = family_q[i], shear_moment = family_shear[i];
       if (m > 0.0 && shear_moment > 0.0) {
         scale = 3.0 / m;
         a = 1.5 * kappa / m;
