@@ -211,11 +211,12 @@ SurfaceCheckReport check_run_surfaces(const std::filesystem::path& dir, const Su
       c.stretched_triangles = 0;
       const double limit = options.stretch_ratio;
       for (std::uint32_t f = 0; f < s.triangle.size(); ++f) {
-        double worst = 0.0;
+        double worst = 0.0, worst_ref = 0.0, worst_now = 0.0;  // the most stretched edge, m
         for (int e = 0; e < 3; ++e) {
           const std::uint32_t a = s.triangle[f][static_cast<std::size_t>(e)], b = s.triangle[f][static_cast<std::size_t>((e + 1) % 3)];
           const double ref = (s.reference[a] - s.reference[b]).norm();
-          if (ref > 0.0) worst = std::max(worst, (s.vertex[a] - s.vertex[b]).norm() / ref);
+          const double now = (s.vertex[a] - s.vertex[b]).norm();
+          if (ref > 0.0 && now / ref > worst) worst = now / ref, worst_ref = ref, worst_now = now;
         }
         if (worst <= limit) continue;
         const std::uint32_t p = s.tet[f];
@@ -230,8 +231,13 @@ SurfaceCheckReport check_run_surfaces(const std::filesystem::path& dir, const Su
         });
         c.stretched_triangles += particle_stretch <= limit;
         if (particle_stretch <= limit && options.details) {
-          char line[160];
-          std::snprintf(line, sizeof line, "stretched triangle of tet %u: edge ratio %.3g, its particles' neighbourhood %.3g", p, worst, particle_stretch);
+          // The edge's lengths say whether it is a spike (an edge grown past the horizon) or the short
+          // edge of a sliver opened to an ordinary edge (the full bunny's, assets/report/surfaces.md).
+          char line[224];
+          std::snprintf(line, sizeof line,
+                        "stretched triangle of tet %u: edge ratio %.3g (%.3g m at rest, %.3g m = %.2g delta now), its "
+                        "particles' neighbourhood %.3g",
+                        p, worst, worst_ref, worst_now, worst_now / delta, particle_stretch);
           c.details.push_back(line);
         }
       }

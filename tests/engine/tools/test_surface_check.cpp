@@ -96,6 +96,46 @@ TEST_CASE("check-surface: a short fracture run has no far, inverted, open or str
     CHECK(bad.frames.back().far_vertices >= 1);
     CHECK(bad.issues() > 0);
   }
+  // A triangle edge stretched past 3× while the particles are not is counted, and --details gives the
+  // edge's length at rest and now: vertex a of the first triangle moved to b + 3.5 (a − b).
+  SUBCASE("a stretched triangle is reported with its edge's lengths") {
+    const io::FrameFiles last = io::scan_run_directory(dir).frames.back();
+    const io::SurfaceFrame s = io::read_surface_frame(last.surface);
+    REQUIRE(s.reference.size() == s.vertex.size());
+    SurfaceMesh m;
+    m.vertices = s.vertex;
+    m.triangles = s.triangle;
+    m.crack = s.crack;
+    m.fragment = s.fragment;
+    m.tet = s.tet;
+    m.reference = s.reference;
+    m.source = s.source;
+    m.velocity.assign(s.vertex.size(), Vec3::Zero());
+    const std::uint32_t a = m.triangles[0][0], b = m.triangles[0][1];
+    m.vertices[a] = m.vertices[b] + 3.5 * (m.vertices[a] - m.vertices[b]);
+    io::write_ply_surface(last.surface, m);
+    // The most stretched edge of that triangle as the file now holds it (PLY stores floats).
+    const io::SurfaceFrame written = io::read_surface_frame(last.surface);
+    double ratio = 0.0, rest = 0.0, now = 0.0;
+    for (int e = 0; e < 3; ++e) {
+      const std::uint32_t p = written.triangle[0][e], q = written.triangle[0][(e + 1) % 3];
+      const double r = (written.reference[p] - written.reference[q]).norm(), n = (written.vertex[p] - written.vertex[q]).norm();
+      if (r > 0.0 && n / r > ratio) ratio = n / r, rest = r, now = n;
+    }
+    REQUIRE(ratio > 3.0);
+    SurfaceCheckOptions options;
+    options.details = true;
+    const auto bad = check_run_surfaces(dir, options);
+    CHECK(bad.frames.back().stretched_triangles >= 1);
+    char expected[96];
+    std::snprintf(expected, sizeof expected, "(%.3g m at rest, %.3g m = ", rest, now);
+    const auto& details = bad.frames.back().details;
+    const bool found = std::any_of(details.begin(), details.end(), [&](const std::string& line) {
+      return line.find("stretched triangle of tet") != std::string::npos && line.find(expected) != std::string::npos;
+    });
+    INFO("expected a stretched-triangle line with " << expected);
+    CHECK(found);
+  }
 }
 
 TEST_CASE("output.min_piece_tets leaves small pieces out of the surface files") {
