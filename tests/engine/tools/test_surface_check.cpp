@@ -48,6 +48,21 @@ scene::Scene torn_slab() {
   return sc;
 }
 
+// A surface file read back as the SurfaceMesh the writers take (velocities, which the checker does
+// not read, zero), for the subcases that corrupt a frame and write it again.
+SurfaceMesh surface_mesh_of(const io::SurfaceFrame& s) {
+  SurfaceMesh m;
+  m.vertices = s.vertex;
+  m.triangles = s.triangle;
+  m.crack = s.crack;
+  m.fragment = s.fragment;
+  m.tet = s.tet;
+  m.reference = s.reference;
+  m.source = s.source;
+  m.velocity.assign(s.vertex.size(), Vec3::Zero());
+  return m;
+}
+
 }  // namespace
 
 TEST_CASE("check-surface: a short fracture run has no far, inverted, open or stretched surface elements") {
@@ -84,11 +99,7 @@ TEST_CASE("check-surface: a short fracture run has no far, inverted, open or str
     CHECK(s.reference.size() == s.vertex.size());
     CHECK(s.tet.size() == s.triangle.size());
     // Rewrite it as a plain OBJ with one vertex moved by 1 m (no reference data: stretch n/a).
-    SurfaceMesh m;
-    m.vertices = s.vertex;
-    m.triangles = s.triangle;
-    m.crack = s.crack;
-    m.fragment = s.fragment;
+    SurfaceMesh m = surface_mesh_of(s);
     m.vertices[m.triangles[0][0]] += Vec3(1.0, 0, 0);
     fs::remove(last.surface);
     io::write_obj_surface(last.surface.parent_path() / last.surface.filename().replace_extension(".obj"), m);
@@ -102,15 +113,7 @@ TEST_CASE("check-surface: a short fracture run has no far, inverted, open or str
     const io::FrameFiles last = io::scan_run_directory(dir).frames.back();
     const io::SurfaceFrame s = io::read_surface_frame(last.surface);
     REQUIRE(s.reference.size() == s.vertex.size());
-    SurfaceMesh m;
-    m.vertices = s.vertex;
-    m.triangles = s.triangle;
-    m.crack = s.crack;
-    m.fragment = s.fragment;
-    m.tet = s.tet;
-    m.reference = s.reference;
-    m.source = s.source;
-    m.velocity.assign(s.vertex.size(), Vec3::Zero());
+    SurfaceMesh m = surface_mesh_of(s);
     const std::uint32_t a = m.triangles[0][0], b = m.triangles[0][1];
     m.vertices[a] = m.vertices[b] + 3.5 * (m.vertices[a] - m.vertices[b]);
     io::write_ply_surface(last.surface, m);
