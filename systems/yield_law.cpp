@@ -5,6 +5,8 @@
 // Reads and writes no component: setup-time and reporting arithmetic only.
 #include "yield_law.hpp"
 
+#include "perifx/math.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -16,7 +18,7 @@ namespace perifx::systems {
 double offset_yield_ratio(double kappa, double mu, double flow_stress, double offset_strain) {
   if (!(kappa > 0.0 && mu > 0.0 && flow_stress > 0.0 && offset_strain > 0.0) || !std::isfinite(flow_stress))
     return std::numeric_limits<double>::quiet_NaN();
-  const double youngs = 9.0 * kappa * mu / (3.0 * kappa + mu), eps_y = flow_stress / youngs;
+  const double youngs = youngs_modulus(kappa, mu), eps_y = flow_stress / youngs;
   const double s_c = std::sqrt(3.0) * flow_stress / (10.0 * mu);
   constexpr int kDirections = 2000;  // midpoints in c ∈ [−1, 1]
   std::array<double, kDirections> c2{}, p{};

@@ -33,9 +33,6 @@ inline scene::Scene box_scene(const Vec3& size, double cell, double kappa, doubl
   return s;
 }
 
-inline double youngs(double kappa, double mu) { return 9.0 * kappa * mu / (3.0 * kappa + mu); }
-inline double poisson(double kappa, double mu) { return (3.0 * kappa - 2.0 * mu) / (2.0 * (3.0 * kappa + mu)); }
-
 // Dilatation and internal force for positions y of a world (outside the step graph).
 struct Evaluation {
   std::vector<double> theta, coupling;

@@ -311,8 +311,8 @@ int cmd_info(const Args& a) {
     std::ostringstream line;
     line.precision(4);
     line << "material         " << m.name << (m.preset.empty() ? "" : " (preset " + m.preset + ")") << ": density "
-         << m.density << " kg/m^3, E " << 9.0 * kappa * mu / (3.0 * kappa + mu) << " Pa, nu "
-         << (3.0 * kappa - 2.0 * mu) / (2.0 * (3.0 * kappa + mu));
+         << m.density << " kg/m^3, E " << perifx::youngs_modulus(kappa, mu) << " Pa, nu "
+         << perifx::poisson_ratio(kappa, mu);
     if (m.fracture_energy > 0.0) line << ", fracture_energy " << m.fracture_energy << " J/m^2";
     else if (std::isfinite(m.critical_stretch)) line << ", critical_stretch " << m.critical_stretch;
     if (m.yield_stress > 0.0 && std::isfinite(m.yield_stress))

@@ -298,8 +298,8 @@ class Converter {
                 "'poisson_ratio', or a 'preset')");
       const double E = m.contains("youngs_modulus") ? num(m["youngs_modulus"]) : preset->youngs_modulus;
       const double nu = m.contains("poisson_ratio") ? num(m["poisson_ratio"]) : preset->poisson_ratio;
-      out.bulk_modulus = E / (3.0 * (1.0 - 2.0 * nu));
-      out.shear_modulus = E / (2.0 * (1.0 + nu));
+      out.bulk_modulus = bulk_modulus(E, nu);
+      out.shear_modulus = shear_modulus(E, nu);
     }
     // Real solids carry waves at up to ~20 km/s; far beyond it the stable step is meaningless.
     const double wave = std::sqrt((out.bulk_modulus + 4.0 / 3.0 * out.shear_modulus) / out.density);

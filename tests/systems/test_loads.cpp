@@ -88,7 +88,7 @@ TEST_CASE("loads: a bar pulled by end tractions reaches the static stress T and 
   // ramped up over 20 ms and damped to rest.
   const Vec3 size(0.2, 0.04, 0.04);
   const double E = 1e6, nu = 0.25, T = 1e3;
-  auto sc = test::box_scene(size, 0.01, E / (3 * (1 - 2 * nu)), E / (2 * (1 + nu)));
+  auto sc = test::box_scene(size, 0.01, perifx::bulk_modulus(E, nu), perifx::shear_modulus(E, nu));
   sc.materials[0].damping = 800.0;
   World probe(sc);
   sc.time.dt = 0.8 * probe.stable_time_step();

@@ -71,7 +71,7 @@ TEST_CASE("fracture_energy: s_c = sqrt(G_c / (K delta)) per particle, K = 5mu + 
 // (λ, λ/1.5, λ/2) and both normalizations.
 TEST_CASE("yield_stress: sustained uniaxial plastic flow carries sigma_y within 5% at three resolutions") {
   const double sigma_y = 500.0;
-  const double eps_y = sigma_y / test::youngs(kKappa, kMu);  // 1e-3
+  const double eps_y = sigma_y / perifx::youngs_modulus(kKappa, kMu);  // 1e-3
   for (auto norm : {scene::Normalization::paper, scene::Normalization::discrete}) {
     for (double cell : {0.012, 0.008, 0.006}) {
       auto sc = test::box_scene(Vec3(0.072, 0.072, 0.072), cell, kKappa, kMu);
@@ -253,7 +253,7 @@ TEST_CASE("yield_stress: a bar in tension flows at sigma_y at three resolutions 
     // that mode; a shorter one leaves it in the elastic fit and the offset crossing.
     const std::size_t n = p.stress.size();
     const double dt = p.time[0];
-    const double period = 2.0 * p.free_length / std::sqrt(test::youngs(mat.bulk_modulus, mat.shear_modulus) / mat.density);
+    const double period = 2.0 * p.free_length / std::sqrt(perifx::youngs_modulus(mat.bulk_modulus, mat.shear_modulus) / mat.density);
     const auto half = static_cast<std::size_t>(0.5 * period / dt);
     std::vector<double> smooth(n, 0.0);
     for (std::size_t k = 0; k < n; ++k) {
@@ -280,7 +280,7 @@ TEST_CASE("yield_stress: a bar in tension flows at sigma_y at three resolutions 
         break;
       }
     }
-    const double youngs = test::youngs(mat.bulk_modulus, mat.shear_modulus), eps_y = sigma_y / youngs;
+    const double youngs = perifx::youngs_modulus(mat.bulk_modulus, mat.shear_modulus), eps_y = sigma_y / youngs;
     auto stress_at = [&](double strain) {  // smoothed stress at the first sample past this strain
       for (std::size_t k = 0; k < n; ++k)
         if (p.strain[k] >= strain) return smooth[k];

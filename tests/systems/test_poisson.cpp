@@ -25,7 +25,7 @@ double slope(const World& w, const std::vector<std::size_t>& ids, int a, int b) 
 double measured_poisson(double nu, scene::Normalization normalization) {
   const double E = 1.0e6;
   const double L = 0.3, W = 0.06;
-  auto sc = test::box_scene(Vec3(L, W, W), 0.01, E / (3 * (1 - 2 * nu)), E / (2 * (1 + nu)));
+  auto sc = test::box_scene(Vec3(L, W, W), 0.01, perifx::bulk_modulus(E, nu), perifx::shear_modulus(E, nu));
   sc.normalization = normalization;
   sc.materials[0].damping = 1500.0;  // dynamic relaxation towards the static state
   const double eps = 1e-3, clamp = 0.025;

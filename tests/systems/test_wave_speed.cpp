@@ -25,7 +25,7 @@ double measured_speed(scene::Normalization normalization) {
   const double x0 = -0.35, width = 0.06;
   for (std::size_t i = 0; i < v.size(); ++i) v[i] = Vec3(1e-3 * std::exp(-std::pow((x[i].x() - x0) / width, 2)), 0, 0);
   Probe a{-0.1}, b{0.3};
-  const double c = std::sqrt(test::youngs(kappa, mu) / rho);
+  const double c = std::sqrt(perifx::youngs_modulus(kappa, mu) / rho);
   const double t_end = (b.station - x0) / c * 1.4;
   while (world.time() < t_end) {
     world.step();
@@ -43,7 +43,7 @@ double measured_speed(scene::Normalization normalization) {
 }  // namespace
 
 TEST_CASE("longitudinal pulse travels at sqrt(E/rho) within 5%") {
-  const double c = std::sqrt(test::youngs(2.0e6, 1.2e6) / 1000.0);
+  const double c = std::sqrt(perifx::youngs_modulus(2.0e6, 1.2e6) / 1000.0);
   const double discrete = measured_speed(scene::Normalization::discrete);
   const double paper = measured_speed(scene::Normalization::paper);
   MESSAGE("bar velocity sqrt(E/rho) = " << c << " m/s; measured: discrete normalization " << discrete

@@ -9,11 +9,11 @@
 using namespace perifx;
 
 TEST_CASE("yield law: the per-bond law yields first at 3 sqrt(3)/10 sigma_y, its 0.2 % offset yield below sigma_y, flows at it") {
-  const double kappa = 3.3e6, mu = 2.0e6, youngs = test::youngs(kappa, mu);
+  const double kappa = 3.3e6, mu = 2.0e6, youngs = perifx::youngs_modulus(kappa, mu);
   // The first bonds to reach the cap are the axial ones: deviatoric strain (2/3)(1 + ν) ε = s_c with
   // s_c = √3 σ_y/(10 μ), at the stress E ε = 3√3/10 σ_y for any ν. A tiny offset reads it.
   for (double bulk : {1.0e6, 3.3e6, 2.0e7}) {  // ν −0.1, 0.25, 0.45
-    const double first = systems::offset_yield_ratio(bulk, mu, 0.004 * test::youngs(bulk, mu), 1e-9);
+    const double first = systems::offset_yield_ratio(bulk, mu, 0.004 * perifx::youngs_modulus(bulk, mu), 1e-9);
     CHECK(first == doctest::Approx(3.0 * std::sqrt(3.0) / 10.0).epsilon(0.005));
   }
   // The engineering (0.2 %) offset yield depends on how far 0.2 % lies along the knee, i.e. on σ_y/E.

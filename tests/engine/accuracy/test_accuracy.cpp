@@ -54,7 +54,7 @@ Material with_poisson(double nu) {  // μ = 20 MPa, κ from ν
 
 TEST_CASE("accuracy: quadratic tets on a coarse mesh match beam and elasticity theory") {
   const Material mat;
-  const double E = test::youngs(mat.kappa, mat.mu), nu = test::poisson(mat.kappa, mat.mu);
+  const double E = perifx::youngs_modulus(mat.kappa, mat.mu), nu = perifx::poisson_ratio(mat.kappa, mat.mu);
   // Stretch: uniform uniaxial stress in the middle, so ν comes out exactly (any element).
   CHECK(solve_fem(Problem::stretch, mat, 2, true).poisson == doctest::Approx(nu).epsilon(0.01));
   // Cantilever under self-weight: Euler–Bernoulli tip deflection q L⁴/(8EI) at the free end; the

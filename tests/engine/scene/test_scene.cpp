@@ -596,3 +596,18 @@ TEST_CASE("scene: loads convert, and their errors name the pointer, the value an
   CHECK_HAS(with(R"({"type": "wind", "velocity": [1, 0, 0]})"), "/loads/0/type:");
   CHECK_HAS(with(R"({"type": "noise", "amplitude": -1, "feature_size": 1})"), "/loads/0/amplitude: out of range");
 }
+
+TEST_CASE("elastic moduli: (E, nu) and (bulk, shear) convert into each other") {
+  // Steel by hand: κ = E / (3 (1 − 2ν)) = 2e11 / 1.2, μ = E / (2 (1 + ν)) = 2e11 / 2.6.
+  CHECK(perifx::bulk_modulus(2e11, 0.3) == doctest::Approx(2e11 / 1.2).epsilon(1e-15));
+  CHECK(perifx::shear_modulus(2e11, 0.3) == doctest::Approx(2e11 / 2.6).epsilon(1e-15));
+  // κ = μ: E = 9μ/4 and ν = 1/8 (9κμ/(3κ+μ) and (3κ−2μ)/(2(3κ+μ)) with κ = μ = 1).
+  static_assert(perifx::youngs_modulus(1.0, 1.0) == 2.25);
+  static_assert(perifx::poisson_ratio(1.0, 1.0) == 0.125);
+  // Round trips over the whole admissible range of ν, to a few ulps.
+  for (const double nu : {-0.9, -0.3, 0.0, 0.1, 0.25, 0.4, 0.49}) {
+    const double E = 3.7e7, kappa = perifx::bulk_modulus(E, nu), mu = perifx::shear_modulus(E, nu);
+    CHECK(perifx::youngs_modulus(kappa, mu) == doctest::Approx(E).epsilon(1e-14));
+    CHECK(perifx::poisson_ratio(kappa, mu) == doctest::Approx(nu).epsilon(1e-13).scale(1.0));
+  }
+}
