@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
@@ -228,6 +229,7 @@ void find_contact_sends(const WorldState& local, LocalLayout& layout,
                         const std::vector<std::vector<std::uint64_t>>& cells_by_rank) {
   const double inv_cell = 1.0 / layout.contact_layer;
   const auto& y = local.particles.position;
+  layout.contact_sends_before = std::move(layout.contact_sends);
   layout.contact_sends.clear();
   for (int q = 0; q < layout.ranks; ++q) {
     const auto& theirs = cells_by_rank[static_cast<std::size_t>(q)];
@@ -271,12 +273,26 @@ std::size_t record_bytes(const WorldState& local) {
 
 }  // namespace
 
-std::vector<char> pack_contact_ghosts(const WorldState& local, const HaloLink& link) {
-  std::vector<char> out(link.local.size() * record_bytes(local));
+std::vector<char> pack_contact_ghosts(const WorldState& local, const LocalLayout& layout, const HaloLink& link) {
+  // What link.rank holds already: the previous refresh's list to it (increasing local index).
+  const std::vector<std::uint32_t>* held = nullptr;
+  for (const auto& before : layout.contact_sends_before)
+    if (before.rank == link.rank) held = &before.local;
+  auto entering = [&](std::uint32_t i) { return !held || !std::binary_search(held->begin(), held->end(), i); };
+  std::size_t new_count = 0;
+  for (std::uint32_t i : link.local) new_count += entering(i);
+  const std::size_t record = record_bytes(local) - sizeof(std::uint32_t);
+  std::vector<char> out(sizeof(std::uint32_t) * (1 + link.local.size()) + new_count * record);
   char* at = out.data();
+  const auto count = static_cast<std::uint32_t>(link.local.size());
+  std::memcpy(at, &count, sizeof count);
+  at += sizeof count;
   for (std::uint32_t i : link.local) {
     std::memcpy(at, &local.global_index[i], sizeof(std::uint32_t));
     at += sizeof(std::uint32_t);
+  }
+  for (std::uint32_t i : link.local) {
+    if (!entering(i)) continue;
     for_each_particle_array(local, [&](const auto& array) {
       std::memcpy(at, &array[i], sizeof(array[0]));
       at += sizeof(array[0]);
@@ -286,8 +302,54 @@ std::vector<char> pack_contact_ghosts(const WorldState& local, const HaloLink& l
 }
 
 void set_contact_ghosts(WorldState& local, LocalLayout& layout,
-                        const std::vector<std::pair<int, std::vector<char>>>& received_by_rank) {
-  const std::size_t record = record_bytes(local);
+                        const std::vector<std::pair<int, std::vector<char>>>& messages) {
+  // Each sender's list as whole records (global index, then every array), in its list's order: a
+  // ghost this rank holds from that sender is copied from its current record (its motion is this
+  // step's, the rest is never read of a contact ghost, local_world.hpp), an entering one from the
+  // message. Copied out before the arrays are cut back below.
+  const std::size_t record = record_bytes(local), payload = record - sizeof(std::uint32_t);
+  std::vector<std::pair<int, std::vector<char>>> received_by_rank;
+  for (const auto& [rank, bytes] : messages) {
+    std::uint32_t count = 0;
+    if (bytes.size() < sizeof count) throw std::logic_error("contact ghost message without its count");
+    std::memcpy(&count, bytes.data(), sizeof count);
+    const char* globals = bytes.data() + sizeof count;
+    const char* next_record = globals + std::size_t{count} * sizeof(std::uint32_t);
+    const char* const end = bytes.data() + bytes.size();
+    const std::vector<std::uint32_t>* held = nullptr;  // this rank's contact ghosts from `rank` (global order)
+    for (const auto& link : layout.contact_receives)
+      if (link.rank == rank) held = &link.local;
+    std::vector<char> whole(std::size_t{count} * record);
+    char* at = whole.data();
+    for (std::uint32_t m = 0; m < count; ++m) {
+      std::uint32_t global = 0;
+      std::memcpy(&global, globals + std::size_t{m} * sizeof global, sizeof global);
+      std::memcpy(at, &global, sizeof global);
+      at += sizeof global;
+      const std::uint32_t* kept = nullptr;  // its local index, when held
+      if (held) {
+        const auto it = std::lower_bound(held->begin(), held->end(), global,
+                                         [&](std::uint32_t i, std::uint32_t g) { return layout.global_of[i] < g; });
+        if (it != held->end() && layout.global_of[*it] == global) kept = &*it;
+      }
+      if (kept) {
+        const std::uint32_t i = *kept;
+        for_each_particle_array(local, [&](const auto& array) {
+          std::memcpy(at, &array[i], sizeof(array[0]));
+          at += sizeof(array[0]);
+        });
+      } else {
+        if (end - next_record < static_cast<std::ptrdiff_t>(payload))
+          throw std::logic_error("contact ghost message from rank " + std::to_string(rank) + " lacks a record");
+        std::memcpy(at, next_record, payload);
+        next_record += payload;
+        at += payload;
+      }
+    }
+    if (next_record != end)
+      throw std::logic_error("contact ghost message from rank " + std::to_string(rank) + " has records left over");
+    received_by_rank.emplace_back(rank, std::move(whole));
+  }
   std::size_t total = 0;
   for (const auto& [rank, bytes] : received_by_rank) total += bytes.size() / record;
   // Drop the previous contact ghosts, then append the new ones.

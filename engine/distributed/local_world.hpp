@@ -120,6 +120,7 @@ struct LocalLayout {
   double contact_skin = 0.0;              // m
   std::vector<HaloLink> contact_sends;    // owned particles other ranks hold as contact ghosts, by rank
   std::vector<HaloLink> contact_receives; // this rank's contact ghosts, by owning rank
+  std::vector<HaloLink> contact_sends_before;  // the previous refresh's contact_sends: what each rank holds
   std::vector<Vec3> refreshed_at;         // per owned particle: its position at the last refresh, m
 };
 
@@ -133,15 +134,22 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
 
 // A contact ghost refresh, in four steps: every rank lists its occupied cells (contact_cells); the
 // lists go to every rank; each rank finds what it sends (find_contact_sends), packs it
-// (pack_contact_ghosts: whole particle records, every per-particle array), and the receiver appends
-// what it got (set_contact_ghosts), which replaces the previous contact ghosts. The transport is the
-// runtime's (or the in-process test's).
+// (pack_contact_ghosts), and the receiver sets what it got (set_contact_ghosts), which replaces the
+// previous contact ghosts. The transport is the runtime's (or the in-process test's).
+// Incremental: a message holds the sender's whole list to the receiver as global indices (a uint32
+// count, then the indices, in increasing order) but the records (every per-particle array) only of the
+// particles that enter the list, those not in the previous refresh's list to that rank
+// (contact_sends_before; the receiver holds exactly those as its contact_receives from the sender).
+// The receiver keeps the records of the others as it has them: their motion arrived with this step's
+// halo, and nothing reads anything else of a contact ghost that changes after set-up (contact.cpp reads
+// its position, velocity, reference position, mass, size and body). The new ghosts are then exactly
+// those a whole-record refresh gives, in the same order, so the contact list and forces are too.
 std::vector<std::uint64_t> contact_cells(const WorldState& local, const LocalLayout& layout);
 void find_contact_sends(const WorldState& local, LocalLayout& layout,
                         const std::vector<std::vector<std::uint64_t>>& cells_by_rank);
-std::vector<char> pack_contact_ghosts(const WorldState& local, const HaloLink& link);
+std::vector<char> pack_contact_ghosts(const WorldState& local, const LocalLayout& layout, const HaloLink& link);
 void set_contact_ghosts(WorldState& local, LocalLayout& layout,
-                        const std::vector<std::pair<int, std::vector<char>>>& received_by_rank);
+                        const std::vector<std::pair<int, std::vector<char>>>& messages);
 // The refresh test (see "When the contact ghosts must be refreshed" above). One rank's measure of its
 // owned particles: (A) and the box of the displacements widened by their look-ahead. No owned
 // particles: (A) holds and the box is empty (low +inf, high −inf). A non-finite value (or no refresh

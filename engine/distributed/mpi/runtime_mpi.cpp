@@ -317,7 +317,7 @@ struct Runtime::Impl {
     std::vector<char> out;
     for (const auto& link : layout.contact_sends) {
       const auto q = static_cast<std::size_t>(link.rank);
-      std::vector<char> packed = pack_contact_ghosts(w, link);
+      std::vector<char> packed = pack_contact_ghosts(w, layout, link);
       send_displacements[q] = int_count(out.size(), "contact ghost");
       send_counts[q] = int_count(packed.size(), "contact ghost");
       out.insert(out.end(), packed.begin(), packed.end());

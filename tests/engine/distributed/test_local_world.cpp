@@ -61,17 +61,34 @@ void exchange(std::vector<Rank>& ranks, std::size_t r, Copy&& copy, bool contact
 }
 
 // A contact ghost refresh of every rank, in memory (what the MPI runtime does with two collectives).
-void refresh_contact_ghosts(std::vector<Rank>& ranks) {
+// Returns the bytes of every message.
+std::size_t refresh_contact_ghosts(std::vector<Rank>& ranks) {
   std::vector<std::vector<std::uint64_t>> cells;
   for (const auto& rank : ranks) cells.push_back(distributed::contact_cells(*rank.world, rank.layout));
   for (auto& rank : ranks) distributed::find_contact_sends(*rank.world, rank.layout, cells);
   std::vector<std::vector<std::pair<int, std::vector<char>>>> received(ranks.size());
+  std::size_t bytes = 0;
   for (std::size_t q = 0; q < ranks.size(); ++q)  // in sender order, as MPI_Alltoallv delivers
-    for (const auto& link : ranks[q].layout.contact_sends)
+    for (const auto& link : ranks[q].layout.contact_sends) {
       received[static_cast<std::size_t>(link.rank)].emplace_back(
-          static_cast<int>(q), distributed::pack_contact_ghosts(*ranks[q].world, link));
+          static_cast<int>(q), distributed::pack_contact_ghosts(*ranks[q].world, ranks[q].layout, link));
+      bytes += received[static_cast<std::size_t>(link.rank)].back().second.size();
+    }
   for (std::size_t r = 0; r < ranks.size(); ++r)
     distributed::set_contact_ghosts(*ranks[r].world, ranks[r].layout, received[r]);
+  return bytes;
+}
+
+// The motion halo (position, velocity) of every rank's bond and contact ghosts.
+void exchange_motion(std::vector<Rank>& ranks) {
+  for (std::size_t r = 0; r < ranks.size(); ++r)
+    exchange(
+        ranks, r,
+        [](WorldState& to, std::uint32_t i, const WorldState& from, std::uint32_t j) {
+          to.particles.position[i] = from.particles.position[j];
+          to.particles.velocity[i] = from.particles.velocity[j];
+        },
+        true);
 }
 
 // The refresh test as the runtime decides it: every rank's measure encoded, the words' elementwise
@@ -349,6 +366,104 @@ TEST_CASE("local worlds: contact ghosts: a translation of everything keeps them,
   // A non-finite position is stale.
   y1[i1].z() = std::numeric_limits<double>::quiet_NaN();
   CHECK(contact_ghosts_stale(ranks));
+}
+
+TEST_CASE("local worlds: contact ghosts: a refresh sends the records of entering particles only and sets what a whole refresh sets") {
+  scene::Scene sc = scene::load_scene_file(std::filesystem::path(PERIFX_SOURCE_DIR) /
+                                           "tests/engine/distributed/contact_blocks.json");
+  const World source(sc);
+  const WorldState& full = source.state();
+  const auto domains = distributed::split_by_work(full, 2);
+  auto make_ranks = [&] {
+    std::vector<Rank> ranks(2);
+    for (std::size_t r = 0; r < ranks.size(); ++r) {
+      ranks[r].layout = distributed::make_layout(full, domains, static_cast<int>(r));
+      ranks[r].world = distributed::make_local_world(full, ranks[r].layout);
+    }
+    return ranks;
+  };
+  // A record: every per-particle array's element (what a contact ghost carries besides its index).
+  std::size_t record = 0;
+  for_each_array(full, [&](ArrayKind kind, const char*, const auto& array) {
+    if (kind == ArrayKind::particle && array.size() == full.particles.count()) record += sizeof(array[0]);
+  });
+  // The list part of the messages: per link a count and the global indices, 4 bytes each.
+  auto list_bytes = [](const std::vector<Rank>& ranks) {
+    std::size_t bytes = 0;
+    for (const auto& rank : ranks)
+      for (const auto& link : rank.layout.contact_sends) bytes += 4 * (1 + link.local.size());
+    return bytes;
+  };
+  auto entering = [](const std::vector<Rank>& ranks, std::size_t* leaving = nullptr) {
+    std::size_t count = 0;
+    for (const auto& rank : ranks)
+      for (const auto& link : rank.layout.contact_sends) {
+        std::vector<std::uint32_t> before;
+        for (const auto& b : rank.layout.contact_sends_before)
+          if (b.rank == link.rank) before = b.local;
+        for (std::uint32_t i : link.local) count += !std::binary_search(before.begin(), before.end(), i);
+        if (leaving)
+          for (std::uint32_t i : before) *leaving += !std::binary_search(link.local.begin(), link.local.end(), i);
+      }
+    return count;
+  };
+  auto tails = [](const Rank& rank) {  // the contact ghosts: indices and every per-particle array's bytes
+    std::vector<char> bytes;
+    const WorldState& w = *rank.world;
+    const std::size_t n = w.particles.count(), base = rank.layout.base_count;
+    for_each_array(w, [&](ArrayKind kind, const char*, const auto& array) {
+      if (kind != ArrayKind::particle || array.size() != n) return;
+      const char* first = reinterpret_cast<const char*>(array.data() + base);
+      bytes.insert(bytes.end(), first, first + (n - base) * sizeof(array[0]));
+    });
+    const char* g = reinterpret_cast<const char*>(w.global_index.data() + base);
+    bytes.insert(bytes.end(), g, g + (n - base) * sizeof(std::uint32_t));
+    return bytes;
+  };
+
+  std::vector<Rank> ranks = make_ranks();
+  // The first refresh: every particle enters, whole records.
+  const std::size_t first = refresh_contact_ghosts(ranks);
+  const std::size_t first_ghosts = entering(ranks);
+  REQUIRE(first_ghosts > 0);
+  CHECK(first == list_bytes(ranks) + first_ghosts * record);
+  // Nothing moved: the same lists, no record sent, the ghosts as they were.
+  const std::vector<char> tail0 = tails(ranks[0]), tail1 = tails(ranks[1]);
+  CHECK(refresh_contact_ghosts(ranks) == list_bytes(ranks));
+  CHECK(entering(ranks) == 0);
+  CHECK(tails(ranks[0]) == tail0);
+  CHECK(tails(ranks[1]) == tail1);
+  // Rank 1's particles move a layer along −x and half a block along +y, with the motion
+  // halo after: particles enter and leave the lists; only the entering ones' records travel.
+  const double layer = ranks[0].layout.contact_layer;
+  for (std::size_t r = 0; r < ranks.size(); ++r) {
+    const auto& l = ranks[r].layout;
+    const Vec3 by = r == 1 ? Vec3(-layer, 0.05, 0.0) : Vec3::Zero();
+    for (std::uint32_t i = l.owned_begin; i < l.owned_begin + l.owned_count; ++i) ranks[r].world->particles.position[i] += by;
+  }
+  exchange_motion(ranks);
+  const std::size_t moved = refresh_contact_ghosts(ranks);
+  std::size_t leaving = 0;
+  const std::size_t entered = entering(ranks, &leaving);
+  MESSAGE(first_ghosts << " contact ghosts at first, then " << entered << " entering and " << leaving
+                       << " leaving; record " << record << " B; " << first << " B, then " << moved << " B");
+  CHECK(entered > 0);
+  CHECK(leaving > 0);
+  CHECK(moved == list_bytes(ranks) + entered * record);
+  // The same ghosts, to the byte, as ranks that receive every record (a first refresh at these
+  // positions).
+  std::vector<Rank> whole = make_ranks();
+  for (std::size_t r = 0; r < ranks.size(); ++r) {
+    const std::size_t base = ranks[r].layout.base_count;
+    REQUIRE(whole[r].layout.base_count == base);
+    std::copy_n(ranks[r].world->particles.position.begin(), base, whole[r].world->particles.position.begin());
+  }
+  refresh_contact_ghosts(whole);
+  for (std::size_t r = 0; r < ranks.size(); ++r) {
+    CAPTURE(r);
+    CHECK(ranks[r].layout.global_of == whole[r].layout.global_of);
+    CHECK(tails(ranks[r]) == tails(whole[r]));
+  }
 }
 
 TEST_CASE("local worlds: contact ghosts: the refresh test's words keep the order of the doubles") {
