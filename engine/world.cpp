@@ -35,7 +35,6 @@ struct World::Impl {
   std::vector<setup::PhaseTime> setup_times;  // construction phases, then the stable-step estimate
   std::unique_ptr<distributed::Runtime> runtime;  // distribute(): this rank's local world and halos
   std::uint64_t rebalances = 0;                  // re-splits of the distributed run so far
-  distributed::RankShare carried;                // traffic and list counters of the runtimes before the last re-split
   bool embedded_mesh = false;                    // a distributed world had an embedded mesh when split
   bool profiling = false;                        // set_profiling's last word
   std::vector<SystemTime> earlier_times;         // profile of the step graphs before the last re-split
@@ -94,9 +93,9 @@ void World::rebalance() {
   gather();
   impl_->runtime->broadcast_world(*impl_->state);
   impl_->earlier_times = system_times();
-  impl_->carried.add_totals(impl_->runtime->share());
+  const RankStats before = impl_->runtime->share();
   impl_->runtime.reset();
-  split(&domains);
+  split(&domains, &before);
   if (impl_->profiling) impl_->runtime->scheduler().set_profiling(true);
   ++impl_->rebalances;
 }
@@ -225,13 +224,13 @@ void World::distribute() {
   split(nullptr);
 }
 
-void World::split(const std::vector<::perifx::distributed::Domain>* domains) {
+void World::split(const std::vector<::perifx::distributed::Domain>* domains, const RankStats* before) {
   // Ranks other than 0 release their mesh below; whether there is one stays everybody's answer.
   impl_->embedded_mesh = impl_->embedded_mesh || !impl_->state->embedded.tets.empty();
   impl_->particles = impl_->state->particles.count();
   impl_->bonds = impl_->state->bonds.count();
   try {
-    impl_->runtime = std::make_unique<distributed::Runtime>(*impl_->state, impl_->scheduler->threads(), domains);
+    impl_->runtime = std::make_unique<distributed::Runtime>(*impl_->state, impl_->scheduler->threads(), domains, before);
   } catch (const std::invalid_argument& e) {  // what the runtime cannot split yet, by JSON pointer
     throw std::invalid_argument(impl_->scene.source.string() + ": " + e.what());
   }
@@ -334,24 +333,7 @@ std::vector<RankStats> World::rank_stats() {
     one.contact = contact_counters();
     return {one};
   }
-  distributed::RankShare now = impl_->runtime->share();
-  now.add_totals(impl_->carried);
-  const std::vector<double> mine = {double(now.owned), double(now.bond_ghosts), double(now.contact_ghosts),
-                                    double(now.halo_bytes), double(now.steps), double(now.contact_ghost_refreshes),
-                                    double(now.list_builds), double(now.list_additions),
-                                    double(now.list_partial_updates), double(now.list_searched),
-                                    double(now.state_gathers), double(now.piece_rounds), now.replay_seconds,
-                                    now.gather_seconds, now.piece_seconds};
-  std::vector<double> all = impl_->runtime->gather_values(mine);  // counts < 2^53: exact in doubles
-  if (all.empty()) all = mine;  // ranks other than 0: their own
-  std::vector<RankStats> out(all.size() / mine.size());
-  for (std::size_t r = 0; r < out.size(); ++r) {
-    const double* v = all.data() + r * mine.size();
-    auto u64 = [&](int k) { return static_cast<std::uint64_t>(v[k]); };
-    out[r] = {static_cast<std::uint32_t>(v[0]), static_cast<std::uint32_t>(v[1]), static_cast<std::uint32_t>(v[2]),
-              u64(3), u64(4), u64(5), {u64(6), u64(7), u64(8), u64(9)}, u64(10), u64(11), v[12], v[13], v[14]};
-  }
-  return out;
+  return impl_->runtime->gather_shares();
 }
 
 std::span<const Vec3> World::positions() const { return impl_->state->particles.position; }

@@ -24,6 +24,7 @@
 
 #include "components/world_state.hpp"
 #include "distributed/decomposition.hpp"
+#include "perifx/world.hpp"
 #include "scheduler.hpp"
 
 namespace perifx::distributed {
@@ -67,47 +68,16 @@ struct StepReport {
   bool rebalance = false;   // the work per rank drifted: re-split with Runtime::rebalanced_domains()
 };
 
-// One rank's share of a distributed run and its traffic since its local world was made (Runtime::share).
-struct RankShare {
-  std::uint32_t owned = 0;           // particles it owns
-  std::uint32_t bond_ghosts = 0;     // far ends of its owned bonds on other ranks
-  std::uint32_t contact_ghosts = 0;  // other ranks' particles within contact reach (as of the last refresh)
-  std::uint64_t halo_bytes = 0;      // received by the step's halo exchanges and the contact-ghost refreshes
-  std::uint64_t steps = 0;           // steps taken
-  std::uint64_t contact_ghost_refreshes = 0;
-  // Its own contact pair list's counters (systems/contact.cpp).
-  std::uint64_t list_builds = 0, list_additions = 0, list_partial_updates = 0, list_searched = 0;
-  // Gathers of the particle and bond state to rank 0 (Runtime::gather: every frame, every re-split),
-  // the label rounds of the pieces search in them, and their wall times, s: rank 0's replay of the mesh
-  // splits, the gather itself, the pieces search (each rank's own, waits included).
-  std::uint64_t state_gathers = 0, piece_rounds = 0;
-  double replay_seconds = 0.0, gather_seconds = 0.0, piece_seconds = 0.0;
-
-  // Adds `other`'s running totals (traffic, steps, refreshes, list counters, gathers and their times),
-  // not its counts of now.
-  void add_totals(const RankShare& other) {
-    halo_bytes += other.halo_bytes;
-    steps += other.steps;
-    contact_ghost_refreshes += other.contact_ghost_refreshes;
-    list_builds += other.list_builds;
-    list_additions += other.list_additions;
-    list_partial_updates += other.list_partial_updates;
-    list_searched += other.list_searched;
-    state_gathers += other.state_gathers;
-    piece_rounds += other.piece_rounds;
-    replay_seconds += other.replay_seconds;
-    gather_seconds += other.gather_seconds;
-    piece_seconds += other.piece_seconds;
-  }
-};
-
 class Runtime {
  public:
   // Splits `full` over the ranks of MPI_COMM_WORLD (by `domains`, or split_by_work's listed bonds) and
   // builds this rank's local world and its step graph on `threads` threads. Collective. Throws
   // std::invalid_argument for a world the runtime cannot split yet (the FEM solvers) and
-  // std::runtime_error without MPI.
-  Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains = nullptr);
+  // std::runtime_error without MPI. `before`: the share() of the runtime this one replaces at a
+  // re-split, whose running totals (traffic, steps, refreshes, contact list counters, gathers and their
+  // times) this one continues.
+  Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains = nullptr,
+          const RankStats* before = nullptr);
   ~Runtime();
   Runtime(const Runtime&) = delete;
   Runtime& operator=(const Runtime&) = delete;
@@ -129,13 +99,16 @@ class Runtime {
   // Every rank's `values` (the same count on each), rank after rank, on rank 0; empty elsewhere.
   // Collective.
   std::vector<double> gather_values(const std::vector<double>& values);
+  // Every rank's share(), by rank, on rank 0; its own elsewhere. Collective.
+  std::vector<RankStats> gather_shares();
   // Rank 0's `full` receives every rank's owned particle and bond state (other ranks pass theirs,
   // which is left as it is). Collective.
   void gather(WorldState& full);
   // Rank 0's value of `flag` on every rank. Collective.
   bool broadcast(bool flag);
-  // This rank's share (not collective).
-  RankShare share() const;
+  // This rank's share: its particles and ghosts now, and its traffic and counters since the run was
+  // first split (through every re-split: `before` above). Not collective.
+  RankStats share() const;
 
  private:
   struct Impl;

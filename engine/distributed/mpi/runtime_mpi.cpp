@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 
 #include "distributed/local_world.hpp"
@@ -124,11 +125,11 @@ struct Runtime::Impl {
   std::vector<std::vector<double>> send_buffer, receive_buffer, motion_send_buffer, motion_receive_buffer;
   std::vector<MPI_Request> requests;
   std::vector<int> counts, displacements;  // per rank, for the collectives with a count per rank
-  std::uint64_t contact_refreshes = 0;
-  std::uint64_t halo_bytes = 0;            // received by exchange() and the contact-ghost refreshes
-  std::uint64_t steps = 0;
-  std::uint64_t state_gathers = 0, piece_rounds = 0;      // RankShare
-  double replay_seconds = 0, gather_seconds = 0, piece_seconds = 0;
+  // Running totals (share()): halo bytes received by exchange() and the contact-ghost refreshes, steps,
+  // refreshes, gathers, label rounds and their times; `contact` holds the list counters of the
+  // runtimes before a re-split (this one's are in its local world's list). The counts of now are
+  // filled in by share().
+  RankStats totals;
   std::vector<double> projectile_mine;     // this rank's projectile contacts, while they are gathered
   std::vector<Domain> rebalanced;          // the re-split a StepReport asked for
   // The embedded mesh (rank 0's full world) is split by replaying, at each gather, every step's breaks:
@@ -199,15 +200,15 @@ struct Runtime::Impl {
     const auto work = owned_work();
     std::uint64_t mine = 0;
     for (std::uint32_t x : work) mine += x;
-    std::vector<std::uint64_t> totals;
-    all_gather(std::vector<std::uint64_t>{mine}, totals, MPI_UINT64_T);
+    std::vector<std::uint64_t> per_rank;
+    all_gather(std::vector<std::uint64_t>{mine}, per_rank, MPI_UINT64_T);
     std::uint64_t sum = 0, most = 0;
-    for (std::uint64_t t : totals) {
+    for (std::uint64_t t : per_rank) {
       sum += t;
       most = std::max(most, t);
     }
     // most > (1 + drift) · mean, in doubles from integers: the same decision on every rank.
-    const double mean = static_cast<double>(sum) / static_cast<double>(totals.size());
+    const double mean = static_cast<double>(sum) / static_cast<double>(per_rank.size());
     if (!(static_cast<double>(most) > (1.0 + local->settings.distributed.rebalance_drift) * mean)) return false;
     std::vector<std::uint32_t> all;
     all_gather(work, all, MPI_UINT32_T);
@@ -230,7 +231,7 @@ struct Runtime::Impl {
       check(MPI_Irecv(receive_buf[q].data(), static_cast<int>(link.local.size() * w), MPI_DOUBLE, link.rank, tag,
                       MPI_COMM_WORLD, &requests[r]),
             "receive");
-      halo_bytes += link.local.size() * w * sizeof(double);
+      totals.halo_bytes += link.local.size() * w * sizeof(double);
     }
     for (std::size_t q = 0; q < sends.size(); ++q, ++r) {
       const auto& link = sends[q];
@@ -255,7 +256,7 @@ struct Runtime::Impl {
   std::vector<std::uint32_t> owned_roots;
   void find_pieces() {
     label_local_pieces(*local, layout, pieces);
-    const std::uint64_t step_bytes = halo_bytes;
+    const std::uint64_t step_bytes = totals.halo_bytes;
     auto pack = [&](std::uint32_t i, double* out) { out[0] = piece_label(pieces, i); };
     int lowered = 0;
     auto unpack = [&](std::uint32_t i, const double* in) {
@@ -263,13 +264,13 @@ struct Runtime::Impl {
     };
     for (;;) {
       lowered = 0;
-      ++piece_rounds;
+      ++totals.piece_rounds;
       exchange(layout.sends, layout.receives, send_buffer, receive_buffer, 1, kTagPieces, pack, unpack);
       int any = 0;
       check(MPI_Allreduce(&lowered, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD), "allreduce");
       if (any == 0) break;
     }
-    halo_bytes = step_bytes;
+    totals.halo_bytes = step_bytes;
     owned_roots.resize(layout.owned_count);
     owned_piece_roots(pieces, layout, owned_roots.data());
   }
@@ -339,13 +340,14 @@ struct Runtime::Impl {
                                                                      in.begin() + receive_displacements[q] + receive_counts[q]));
     set_contact_ghosts(w, layout, received);
     set_motion_links();
-    ++contact_refreshes;
-    halo_bytes += total;
+    ++totals.contact_ghost_refreshes;
+    totals.halo_bytes += total;
   }
 };
 
-Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains)
+Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains, const RankStats* before)
     : impl_(std::make_unique<Impl>()) {
+  if (before) impl_->totals = *before;  // its counts of now are replaced in share()
   int started = 0, rank = 0, ranks = 1;
   MPI_Initialized(&started);
   if (!started) throw std::runtime_error("the distributed runtime needs MPI started (run under mpirun)");
@@ -439,7 +441,7 @@ StepReport Runtime::step(bool check_broken) {
   Impl& m = *impl_;
   WorldState& w = *m.local;
   m.scheduler->run_step();
-  ++m.steps;
+  ++m.totals.steps;
   auto& c = w.clock;
   ++c.step;
   c.time = static_cast<double>(c.step) * c.dt;
@@ -473,13 +475,28 @@ StepReport Runtime::step(bool check_broken) {
 
 const std::vector<Domain>& Runtime::rebalanced_domains() const { return impl_->rebalanced; }
 
-RankShare Runtime::share() const {
+RankStats Runtime::share() const {
   const Impl& m = *impl_;
-  const auto local = static_cast<std::uint32_t>(m.layout.global_of.size());
+  RankStats s = m.totals;
+  s.owned_particles = m.layout.owned_count;
+  s.bond_ghosts = m.layout.base_count - m.layout.owned_count;
+  s.contact_ghosts = static_cast<std::uint32_t>(m.layout.global_of.size()) - m.layout.base_count;
   const auto& pairs = m.local->contact.pairs;
-  return {m.layout.owned_count, m.layout.base_count - m.layout.owned_count, local - m.layout.base_count,
-          m.halo_bytes, m.steps, m.contact_refreshes, pairs.builds, pairs.additions, pairs.partial_updates,
-          pairs.searched, m.state_gathers, m.piece_rounds, m.replay_seconds, m.gather_seconds, m.piece_seconds};
+  s.contact.list_builds += pairs.builds;
+  s.contact.list_additions += pairs.additions;
+  s.contact.list_partial_updates += pairs.partial_updates;
+  s.contact.list_searched += pairs.searched;
+  return s;
+}
+
+std::vector<RankStats> Runtime::gather_shares() {
+  static_assert(std::is_trivially_copyable_v<RankStats>, "RankStats travels as bytes");
+  const RankStats mine = share();
+  std::vector<RankStats> all(impl_->layout.rank == 0 ? static_cast<std::size_t>(impl_->layout.ranks) : 0);
+  check(MPI_Gather(&mine, int(sizeof mine), MPI_BYTE, all.data(), int(sizeof mine), MPI_BYTE, 0, MPI_COMM_WORLD),
+        "gather");
+  if (all.empty()) all.push_back(mine);
+  return all;
 }
 Scheduler& Runtime::scheduler() { return *impl_->scheduler; }
 
@@ -524,9 +541,9 @@ void Runtime::gather(WorldState& full) {
   auto seconds_since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
   const auto replay_start = Clock::now();
   if (m.track_breaks) m.replay_mesh(full);  // before the bond states below overwrite the replayed ones
-  m.replay_seconds += seconds_since(replay_start);
+  m.totals.replay_seconds += seconds_since(replay_start);
   const auto gather_start = Clock::now();
-  ++m.state_gathers;
+  ++m.totals.state_gathers;
   full.clock = w.clock;
   full.projectiles.bodies = w.projectiles.bodies;  // the same on every rank
   // summary.json's contact list counters: this rank's (rank 0's, where they are written).
@@ -584,11 +601,11 @@ void Runtime::gather(WorldState& full) {
   gather_bonds(w.bonds.alive, full.bonds.alive);
   gather_bonds(w.bonds.plastic_extension, full.bonds.plastic_extension);
   gather_bonds(w.bonds.plastic_extension_mirror, full.bonds.plastic_extension_mirror);
-  m.gather_seconds += seconds_since(gather_start);
+  m.totals.gather_seconds += seconds_since(gather_start);
   // The pieces, found by every rank from its own bonds; rank 0 gives the stable ids from these roots.
   const auto piece_start = Clock::now();
   m.find_pieces();
-  m.piece_seconds += seconds_since(piece_start);
+  m.totals.piece_seconds += seconds_since(piece_start);
   if (layout.rank == 0) full.derived.fragment_root.resize(full.particles.count());
   gather_slices(m.owned_roots.data(), m.owned_roots.size(), full.derived.fragment_root.data(), layout.rank,
                 layout.ranks, kTagGather, particles_of);

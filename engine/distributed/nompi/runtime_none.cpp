@@ -18,14 +18,15 @@ MpiSession::~MpiSession() = default;
 void MpiSession::abort(int exit_code) const { std::exit(exit_code); }
 
 struct Runtime::Impl {};
-Runtime::Runtime(const WorldState&, int, const std::vector<Domain>*) { not_built(); }
+Runtime::Runtime(const WorldState&, int, const std::vector<Domain>*, const RankStats*) { not_built(); }
 Runtime::~Runtime() = default;
 int Runtime::rank() const { return 0; }
 int Runtime::ranks() const { return 1; }
 StepReport Runtime::step(bool) { not_built(); }
 void Runtime::gather(WorldState&) { not_built(); }
 bool Runtime::broadcast(bool) { not_built(); }
-RankShare Runtime::share() const { not_built(); }
+RankStats Runtime::share() const { not_built(); }
+std::vector<RankStats> Runtime::gather_shares() { not_built(); }
 const std::vector<Domain>& Runtime::rebalanced_domains() const { not_built(); }
 void Runtime::broadcast_world(WorldState&) { not_built(); }
 Scheduler& Runtime::scheduler() { not_built(); }

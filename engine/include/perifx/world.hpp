@@ -227,7 +227,8 @@ class World {
 
  private:
   [[noreturn]] void throw_instability() const;
-  void split(const std::vector<::perifx::distributed::Domain>* domains);  // distribute() by `domains` (null: equal bonds)
+  // distribute() by `domains` (null: equal bonds); `before`: the replaced runtime's share, at a re-split.
+  void split(const std::vector<::perifx::distributed::Domain>* domains, const RankStats* before = nullptr);
   void rebalance();                                              // step(): the runtime's re-split
   bool any_bond_broken() const;  // any particle has a broken bond now (step(): the first break)
   struct Impl;

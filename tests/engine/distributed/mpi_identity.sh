@@ -129,6 +129,19 @@ if ((rebalances == 0)); then
   fail=1
 fi
 compare "3 ranks re-split $rebalances times" "$out"
+# Each rank's totals run through every re-split: a state gather per frame written and per re-split,
+# and the same count of contact-ghost refreshes on every rank (the decision is collective).
+python3 - "$out" "$rebalances" <<'EOF' || fail=1
+import json, pathlib, sys
+run, rebalances = pathlib.Path(sys.argv[1]), int(sys.argv[2])
+stats = json.loads((run / "summary.json").read_text())["rank_stats"]
+frames = len(list(run.glob("particles.*.vtu")))
+want = frames + rebalances
+bad = [k for k, r in enumerate(stats) if r["state_gathers"] != want or r["contact_ghost_refreshes"] != stats[0]["contact_ghost_refreshes"]]
+print(f"mpi_identity: re-split run: {frames} frames + {rebalances} re-splits = {want} state gathers on every rank: "
+      + ("no" if bad else "yes") + f" ({[r['state_gathers'] for r in stats]}); refreshes {[r['contact_ghost_refreshes'] for r in stats]}")
+if bad: sys.exit("mpi_identity: rank_stats of the re-split run do not carry over: ranks " + str(bad))
+EOF
 # Resume: 2 ranks stop at frame 7 (checkpoint), then 3 ranks, and one process, continue to the end.
 for resumer in 3 1; do
   out=$work/resumed_by_$resumer
