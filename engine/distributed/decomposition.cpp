@@ -46,10 +46,19 @@ std::vector<Domain> split(std::size_t n, int ranks, WorkBefore&& work_before) {
   return domains;
 }
 
+// FEM mode (components/fem.hpp): the particles are the mesh vertices and have no bonds; a vertex's
+// force is the sum of its tets' corner forces, so its links are its tet corners.
+bool fem_mode(const WorldState& w) { return w.settings.solver != scene::Solver::peridynamics; }
+
+// Per particle, where its links start (CSR offsets): listed bonds, or in FEM mode tet corners.
+const std::vector<std::uint32_t>& link_offsets(const WorldState& w) {
+  return fem_mode(w) ? w.fem.vertex_offsets : w.bonds.offsets;
+}
+
 }  // namespace
 
 std::vector<Domain> split_by_work(const WorldState& w, int ranks) {
-  const auto& offsets = w.bonds.offsets;
+  const auto& offsets = link_offsets(w);
   auto domains = split(w.particles.count(), ranks,
                        [&](std::size_t i) { return std::uint64_t{offsets[i]} + kParticleWork * i; });
   for (Domain& d : domains) d.bonds = std::uint64_t{offsets[d.last]} - offsets[d.first];
@@ -63,11 +72,17 @@ std::vector<Domain> split_by_work(const std::vector<std::uint32_t>& work, int ra
 }
 
 std::vector<std::uint32_t> current_work(const WorldState& w, std::uint32_t first, std::uint32_t count) {
+  std::vector<std::uint32_t> work(count);
+  if (fem_mode(w)) {  // the tet corners: the same work for the whole run
+    const auto& offsets = w.fem.vertex_offsets;
+    for (std::uint32_t m = 0; m < count; ++m)
+      work[m] = offsets[first + m + 1] - offsets[first + m] + static_cast<std::uint32_t>(kParticleWork);
+    return work;
+  }
   const auto& b = w.bonds;
   const auto& pr = w.contact.pairs;
   const bool contact = w.contact.enabled && pr.valid;
   const auto& tracked = w.embedded.held_tracked;
-  std::vector<std::uint32_t> work(count);
   for (std::uint32_t m = 0; m < count; ++m) {
     const std::uint32_t i = first + m;
     std::uint32_t alive = 0;
@@ -81,15 +96,23 @@ std::vector<std::uint32_t> current_work(const WorldState& w, std::uint32_t first
 
 std::vector<std::vector<std::uint32_t>> bond_ghosts(const WorldState& w, const std::vector<Domain>& domains) {
   const auto& b = w.bonds;
+  const auto& f = w.fem;
+  const bool fem = fem_mode(w);
   std::vector<std::vector<std::uint32_t>> ghosts(domains.size());
   tbb::parallel_for(std::size_t{0}, domains.size(), [&](std::size_t r) {
     const Domain& d = domains[r];
     auto& list = ghosts[r];
-    for (std::uint32_t i = d.first; i < d.last; ++i)
-      for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) {
-        const std::uint32_t j = b.neighbor[k];
-        if (j < d.first || j >= d.last) list.push_back(j);
+    auto add = [&](std::uint32_t j) {
+      if (j < d.first || j >= d.last) list.push_back(j);
+    };
+    for (std::uint32_t i = d.first; i < d.last; ++i) {
+      if (fem) {  // the other vertices of the tets at vertex i
+        for (std::uint32_t k = f.vertex_offsets[i]; k < f.vertex_offsets[i + 1]; ++k)
+          for (std::uint32_t v : w.mesh.tets[f.vertex_corners[k] / 4]) add(v);
+      } else {
+        for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) add(b.neighbor[k]);
       }
+    }
     std::sort(list.begin(), list.end());
     list.erase(std::unique(list.begin(), list.end()), list.end());
   });
@@ -136,7 +159,7 @@ void find_ghosts(const WorldState& w, std::vector<Domain>& domains) {
     d.neighbor_ranks.clear();
     for (std::size_t s = 0; s < domains.size(); ++s)
       if (neighbor[s]) d.neighbor_ranks.push_back(static_cast<std::uint32_t>(s));
-    d.halo_bytes_per_step = std::uint64_t{d.ghosts.size()} * kGhostBytesPerStep;
+    d.halo_bytes_per_step = std::uint64_t{d.ghosts.size()} * (fem_mode(w) ? kFemGhostBytesPerStep : kGhostBytesPerStep);
   });
 }
 

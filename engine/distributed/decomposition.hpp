@@ -11,7 +11,10 @@
 //
 // Ghosts. A rank needs, of particles it does not own, every value its owned particles read:
 //   bond ghosts:    the far ends of its owned particles' listed bonds (alive or not: a broken bond's
-//                   pair is a contact candidate, and the list is fixed at set-up);
+//                   pair is a contact candidate, and the list is fixed at set-up); in FEM mode, where
+//                   the particles are the mesh vertices and have no bonds (components/fem.hpp), the
+//                   other vertices of the tets at its owned vertices, and a vertex's work counts its
+//                   tet corners in place of bonds;
 //   contact ghosts: the particles within the contact reach (largest contact distance + skin,
 //                   components/contact.hpp) of an owned particle in the current positions.
 // Per step a ghost's position and velocity (after the drift), its dilatation θ (after the dilatation
@@ -35,18 +38,20 @@ inline constexpr std::uint64_t kParticleWork = 8;
 // a fitting family refits every 8th step at two outer products per alive bond; BM_MeshRotations with
 // every particle tracked takes 0.19 of an elastic step (bench/README.md, "Embedded-mesh costs").
 inline constexpr std::uint32_t kHeldRotationDivisor = 5;
-// Bytes each ghost receives per step: position and velocity (2 × 24), θ (8), break limit (8).
+// Bytes each ghost receives per step: position and velocity (2 × 24), θ (8), break limit (8); in FEM
+// mode the motion only.
 inline constexpr std::uint64_t kGhostBytesPerStep = 64;
+inline constexpr std::uint64_t kFemGhostBytesPerStep = 48;
 
 struct Domain {
   std::uint32_t first = 0, last = 0;     // owned particles [first, last)
-  std::uint64_t bonds = 0;               // listed bonds of the owned particles
+  std::uint64_t bonds = 0;               // listed bonds of the owned particles (FEM: their tet corners)
   std::uint64_t work = 0;                // Σ bonds + kParticleWork per owned particle
   std::vector<std::uint32_t> ghosts;     // not owned, read by owned particles; ascending
   std::uint32_t bond_ghosts = 0;         // of which the far ends of owned bonds
   std::uint32_t contact_ghosts = 0;      // of which within contact reach only (not bond ghosts)
   std::vector<std::uint32_t> neighbor_ranks;  // ranks owning at least one ghost; ascending
-  std::uint64_t halo_bytes_per_step = 0;      // ghosts × kGhostBytesPerStep
+  std::uint64_t halo_bytes_per_step = 0;      // ghosts × kGhostBytesPerStep (FEM: kFemGhostBytesPerStep)
 };
 
 // Contiguous ranges of equal work; ranks ≥ 1 and ≤ particles (throws std::invalid_argument otherwise).

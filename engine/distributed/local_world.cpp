@@ -59,6 +59,49 @@ std::vector<std::uint32_t> owned_row_offsets(const std::vector<std::uint32_t>& g
   return offsets;
 }
 
+// The FEM part of a local world (make_local_world below).
+void make_local_fem(const WorldState& full, const LocalLayout& layout, WorldState& w) {
+  const FemModel& ff = full.fem;
+  FemModel& f = w.fem;
+  const auto& order = layout.global_of;
+  const std::uint32_t owned_first = order[layout.owned_begin], owned_last = owned_first + layout.owned_count;
+  std::vector<std::uint32_t> tets;  // global indices of the local tets, ascending
+  for (std::uint32_t g = owned_first; g < owned_last; ++g)
+    for (std::uint32_t k = ff.vertex_offsets[g]; k < ff.vertex_offsets[g + 1]; ++k) tets.push_back(ff.vertex_corners[k] / 4);
+  std::sort(tets.begin(), tets.end());
+  tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
+  const std::size_t nt = tets.size(), n = order.size();
+  f.corotated = ff.corotated;
+  f.dm_inverse.resize(nt);
+  f.volume.resize(nt);
+  f.lame_lambda.resize(nt);
+  f.lame_mu.resize(nt);
+  w.mesh.tets.resize(nt);
+  for (std::size_t lt = 0; lt < nt; ++lt) {
+    const std::uint32_t t = tets[lt];
+    f.dm_inverse[lt] = ff.dm_inverse[t];
+    f.volume[lt] = ff.volume[t];
+    f.lame_lambda[lt] = ff.lame_lambda[t];
+    f.lame_mu[lt] = ff.lame_mu[t];
+    for (int c = 0; c < 4; ++c) w.mesh.tets[lt][c] = local_of(order, full.mesh.tets[t][c]);  // owned or a ghost
+  }
+  w.mesh.vertices = w.particles.reference_position;  // the mesh's vertices are the particles
+  f.vertex_offsets.assign(n + 1, 0);
+  f.vertex_corners.clear();
+  for (std::size_t l = 0; l < n; ++l) {
+    if (l >= layout.owned_begin && l < layout.owned_begin + layout.owned_count) {
+      const std::uint32_t g = order[l];
+      for (std::uint32_t k = ff.vertex_offsets[g]; k < ff.vertex_offsets[g + 1]; ++k) {
+        const std::uint32_t corner = ff.vertex_corners[k];
+        const auto lt = static_cast<std::uint32_t>(std::lower_bound(tets.begin(), tets.end(), corner / 4) - tets.begin());
+        f.vertex_corners.push_back(4 * lt + corner % 4);
+      }
+    }
+    f.vertex_offsets[l + 1] = static_cast<std::uint32_t>(f.vertex_corners.size());
+  }
+  f.corner_force.assign(4 * nt, Vec3::Zero());
+}
+
 }  // namespace
 
 LocalLayout make_layout(const WorldState& full, const std::vector<Domain>& domains, int rank) {
@@ -156,6 +199,12 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
   slice(fb.break_scale, b.break_scale);
   b.neighbor.resize(bond_last - bond_first);
   for (std::uint32_t q = bond_first; q < bond_last; ++q) b.neighbor[q - bond_first] = local_of(order, fb.neighbor[q]);
+
+  // FEM mode (components/fem.hpp; no bonds, the particles are the mesh vertices): the tets at the
+  // owned vertices, in increasing global order, with their constants, and each owned vertex's corners
+  // in the same order as in the whole world, so its force sums the same values in the same order.
+  // Ghost vertices get no corners (their force is never read).
+  if (full.settings.solver != scene::Solver::peridynamics) make_local_fem(full, layout, *w);
 
   // Boundary conditions: each list restricted to the owned particles.
   w->boundary.conditions = full.boundary.conditions;

@@ -19,6 +19,12 @@
 // plasticity and break from the same values, as the two ends of a bond do in one process
 // (systems/bond_rules.hpp).
 //
+// FEM worlds (components/fem.hpp: the particles are the mesh vertices, no bonds): the local world
+// holds the tets with an owned vertex, in increasing global order, and an owned vertex's corner list
+// in the whole world's order, so its force sums the same corner forces in the same order; the ghosts
+// are those tets' other vertices (decomposition.hpp), and only the motion halo runs (no θ, no break
+// limits). A ghost vertex has an empty corner list.
+//
 // Owned bond rows keep their global order, so a rank's bonds are the global bond range
 // [offsets[first], offsets[last]) as is: gathering them for output is a plain concatenation.
 //

@@ -72,8 +72,8 @@ class Runtime {
  public:
   // Splits `full` over the ranks of MPI_COMM_WORLD (by `domains`, or split_by_work's listed bonds) and
   // builds this rank's local world and its step graph on `threads` threads. Collective. Throws
-  // std::invalid_argument for a world the runtime cannot split yet (the FEM solvers) and
-  // std::runtime_error without MPI. `before`: the share() of the runtime this one replaces at a
+  // std::invalid_argument for a world the runtime cannot split (an embedded mesh whose vertex motion
+  // is a test option) and std::runtime_error without MPI. `before`: the share() of the runtime this one replaces at a
   // re-split, whose running totals (traffic, steps, refreshes, contact list counters, gathers and their
   // times) this one continues.
   Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains = nullptr,

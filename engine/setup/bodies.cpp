@@ -214,6 +214,8 @@ void allocate_step_state(WorldState& w) {
   assign_huge_pages(s.damage, n, 0.0);
   assign_huge_pages(s.break_extension, n, kInfinity);
   assign_huge_pages(s.bond_end, n, BondEnd{});
+  // Which collider held each particle this step (colliders.cpp, kick_end): peridynamic and FEM worlds alike.
+  if (!w.settings.colliders.empty()) assign_huge_pages(s.collider_contact, n, ColliderContact{});
   assign_huge_pages(s.contact_force, n, Vec3(Vec3::Zero()));
   assign_huge_pages(s.broken_bonds, n, std::uint32_t{0});
   // GᵀG per particle, before anything measures a bond's weighted length (families, embedded mesh).

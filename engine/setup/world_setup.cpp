@@ -162,7 +162,6 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
       p.acceleration[i] = (w.state.internal_force[i] + w.state.external_force[i]) / p.mass[i];
     });
     phase("initial force");
-    if (!w.settings.colliders.empty()) systems::assign_huge_pages(w.state.collider_contact, p.count(), ColliderContact{});
     // The colliders meet the faces placed by the surface frames (systems/surface_frames.cpp).
     if (!w.settings.colliders.empty() && !w.surface.radius.empty()) {
       systems::assign_huge_pages(w.state.surface_frame, p.count(), Eigen::Matrix3f(Eigen::Matrix3f::Zero()));

@@ -353,9 +353,6 @@ Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>*
   if (!started) throw std::runtime_error("the distributed runtime needs MPI started (run under mpirun)");
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &ranks);
-  if (full.settings.solver != scene::Solver::peridynamics)
-    throw std::invalid_argument("/solver: the FEM solvers are not distributed (expected \"peridynamics\"): run "
-                                "this scene in one process");
   Impl& m = *impl_;
   if (domains && domains->size() != static_cast<std::size_t>(ranks))
     throw std::logic_error("Runtime: a split for " + std::to_string(domains->size()) + " ranks, the job has " +

@@ -85,7 +85,8 @@ struct ContactCounters {
 // One rank's share of a distributed run and its traffic over the run (World::rank_stats).
 struct RankStats {
   std::uint32_t owned_particles = 0;  // now
-  std::uint32_t bond_ghosts = 0;      // now: far ends of its owned bonds, owned by other ranks
+  std::uint32_t bond_ghosts = 0;      // now: far ends of its owned bonds (FEM: the other vertices of its
+                                      // vertices' tets), owned by other ranks
   std::uint32_t contact_ghosts = 0;   // as of the last refresh: other ranks' particles within contact reach
   std::uint64_t halo_bytes = 0;       // received by the per-step halo exchanges and the contact-ghost refreshes
   std::uint64_t steps = 0;            // steps it took part in (halo_bytes / steps: bytes per step)
@@ -161,9 +162,9 @@ class World {
   // over the MPI job's ranks, every rank calling it on the same world: from then on step() advances
   // this rank's share and exchanges halos with the others, bit-identical to one process. On rank 0
   // the accessors show the whole world as of the last gather(); on other ranks the world's arrays are
-  // released and only the clock, scene and counts of step() remain. The FEM solvers are not
-  // distributed yet (std::invalid_argument); a build without MPI throws
-  // std::runtime_error. All four calls are collective: every rank makes them in the same order.
+  // released and only the clock, scene and counts of step() remain. The FEM solvers are distributed
+  // too (a rank owns vertices; its ghosts are the other vertices of their tets). A build without MPI
+  // throws std::runtime_error. All four calls are collective: every rank makes them in the same order.
   void distribute();
   void gather();                    // rank 0's view of every particle and bond becomes current
   bool broadcast(bool flag);        // rank 0's flag, on every rank (the same answer in one process)

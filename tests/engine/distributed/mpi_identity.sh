@@ -10,7 +10,8 @@
 # reference run yields, breaks into pieces, is struck by the ball and lifted by a rising box collider
 # (which reads the surface frames computed from ghosts), so the comparison covers all four. A run of 3 ranks
 # re-splits its work every 20 steps (rebalance_drift 0). Then a run of 2 ranks stopped at frame 7 is
-# resumed from its checkpoint by 3 ranks, and by one process: the same bytes. --bind-to none: Open MPI
+# resumed from its checkpoint by 3 ranks, and by one process: the same bytes. Last, the same comparison
+# for the FEM solver (mpi_fem.json) at 2 and 3 ranks and 2 ranks x 2 threads. --bind-to none: Open MPI
 # otherwise pins each rank to one core, and oneTBB would then run 2 threads on it as 1.
 #   usage: mpi_identity.sh PERIFX MPIRUN WORKDIR
 set -euo pipefail
@@ -62,10 +63,11 @@ if broken == 0 or not plastic > 0 or not ball > 0 or summary["fragments"] < 2 or
 EOF
 
 fail=0
-# compare LABEL DIR: every frame file of the one-process run against DIR's, byte for byte.
+# compare LABEL DIR [REFERENCE]: every frame file of the one-process run (or REFERENCE) against DIR's,
+# byte for byte.
 compare() {
   local count=0 f name
-  for f in "$work"/one_process/*; do
+  for f in "${3:-$work/one_process}"/*; do
     name=$(basename "$f")
     # summary.json holds timings and the rank count; checkpoint.bin notes that a run was distributed.
     [[ $name == summary.json || $name == checkpoint.bin ]] && continue
@@ -159,6 +161,25 @@ for resumer in 3 1; do
     fail=1
   fi
   compare "2 ranks to frame 7, resumed by $resumer rank(s)" "$out"
+done
+# The FEM reference solver (mpi_fem.json: corotated tets, an anchor, a velocity condition, gravity, a
+# traction, a ball and a rising box collider): 2 and 3 ranks of 1 thread and 2 ranks of 2 threads.
+fem_scene=$here/mpi_fem.json
+"$perifx" run "$fem_scene" --threads 1 --quiet --out "$work/fem_one_process"
+python3 - "$work/fem_one_process" <<'EOF' || fail=1
+import json, pathlib, sys
+run = pathlib.Path(sys.argv[1])
+s = json.loads((run / "summary.json").read_text())
+rows = (run / "projectiles.csv").read_text().splitlines()[1:]
+ball = max(sum(float(v) ** 2 for v in row.split(",")[11:14]) ** 0.5 for row in rows)
+print(f"mpi_identity: FEM one process: {s['particles']} vertices, {s['frames']} frames, largest ball force {ball:.3g} N")
+if not ball > 0: sys.exit("mpi_identity: the ball must strike the FEM beam; the scene no longer tests that")
+EOF
+for spec in 2x1 3x1 2x2; do
+  ranks=${spec%x*} threads=${spec#*x}
+  out=$work/fem_ranks${ranks}_threads${threads}
+  "$mpirun" --allow-run-as-root --oversubscribe --bind-to none -np "$ranks" "$perifx" run "$fem_scene" --threads "$threads" --quiet --out "$out"
+  compare "FEM, $ranks ranks x $threads threads" "$out" "$work/fem_one_process"
 done
 if ((fail)); then exit 1; fi
 echo "mpi_identity: every output file is byte-identical to one process"

@@ -148,3 +148,38 @@ TEST_CASE("decomposition: a re-balance weighs the held rotations of damaged part
                          << " without the held rotations' cost)");
   CHECK(weighted[0].last < unweighted[0].last);
 }
+
+TEST_CASE("decomposition: FEM ranks own vertices; their ghosts are the other vertices of their tets") {
+  // FEM mode has no bonds: a vertex's force sums the corner forces of the tets at it, so a rank needs
+  // the motion of every vertex of those tets; the work counts the corners. Against brute force over
+  // every tet.
+  auto sc = test::box_scene(Vec3(0.12, 0.06, 0.04), 0.01, 3e6, 2e6);
+  sc.solver = scene::Solver::fem_corotated;
+  World world(sc);
+  const WorldState& w = world.state();
+  REQUIRE(w.bonds.count() == 0);
+  const std::size_t n = w.particles.count();
+  for (int ranks : {2, 3, 5}) {
+    CAPTURE(ranks);
+    const auto domains = distributed::decompose(w, ranks);
+    std::uint64_t corners = 0;
+    for (const auto& d : domains) {
+      std::uint64_t mine = 0;
+      for (std::uint32_t i = d.first; i < d.last; ++i) mine += w.fem.vertex_offsets[i + 1] - w.fem.vertex_offsets[i];
+      CHECK(d.work == mine + distributed::kParticleWork * (d.last - d.first));
+      corners += mine;
+      std::set<std::uint32_t> expected;
+      for (const auto& tet : w.mesh.tets) {
+        const bool touches = std::any_of(tet.begin(), tet.end(), [&](std::uint32_t v) { return v >= d.first && v < d.last; });
+        if (touches)
+          for (std::uint32_t v : tet)
+            if (v < d.first || v >= d.last) expected.insert(v);
+      }
+      CHECK(d.ghosts == std::vector<std::uint32_t>(expected.begin(), expected.end()));
+      CHECK(d.bond_ghosts == expected.size());
+      CHECK(d.halo_bytes_per_step == expected.size() * distributed::kFemGhostBytesPerStep);
+    }
+    CHECK(corners == 4 * w.mesh.tets.size());
+    CHECK(domains.back().last == n);
+  }
+}
