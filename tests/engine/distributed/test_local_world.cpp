@@ -22,6 +22,8 @@ using namespace perifx;
 namespace {
 
 const std::filesystem::path kTear = std::filesystem::path(PERIFX_SOURCE_DIR) / "tests/engine/distributed/mpi_tear.json";
+const std::filesystem::path kContactBlocks =
+    std::filesystem::path(PERIFX_SOURCE_DIR) / "tests/engine/distributed/contact_blocks.json";
 
 // The same bytes in a's owned slice [begin, begin + count) as in b's [first, first + count).
 template <class V>
@@ -79,16 +81,26 @@ std::size_t refresh_contact_ghosts(std::vector<Rank>& ranks) {
   return bytes;
 }
 
-// The motion halo (position, velocity) of every rank's bond and contact ghosts.
-void exchange_motion(std::vector<Rank>& ranks) {
-  for (std::size_t r = 0; r < ranks.size(); ++r)
-    exchange(
-        ranks, r,
-        [](WorldState& to, std::uint32_t i, const WorldState& from, std::uint32_t j) {
-          to.particles.position[i] = from.particles.position[j];
-          to.particles.velocity[i] = from.particles.velocity[j];
-        },
-        true);
+// The layout and local world of every rank of `full` split by work over `count` ranks (no halos set).
+std::vector<Rank> split_ranks(const WorldState& full, int count) {
+  const auto domains = distributed::split_by_work(full, count);
+  std::vector<Rank> ranks(static_cast<std::size_t>(count));
+  for (std::size_t r = 0; r < ranks.size(); ++r) {
+    ranks[r].layout = distributed::make_layout(full, domains, static_cast<int>(r));
+    ranks[r].world = distributed::make_local_world(full, ranks[r].layout);
+  }
+  return ranks;
+}
+
+// The motion halo (position, velocity) of rank r's bond and contact ghosts.
+void exchange_motion(std::vector<Rank>& ranks, std::size_t r) {
+  exchange(
+      ranks, r,
+      [](WorldState& to, std::uint32_t i, const WorldState& from, std::uint32_t j) {
+        to.particles.position[i] = from.particles.position[j];
+        to.particles.velocity[i] = from.particles.velocity[j];
+      },
+      true);
 }
 
 // The refresh test as the runtime decides it: every rank's measure encoded, the words' elementwise
@@ -142,15 +154,7 @@ static void lockstep_matches_one_process(const std::filesystem::path& scene_file
       rank.layout = distributed::make_layout(full, domains, static_cast<int>(r));
       rank.world = distributed::make_local_world(full, rank.layout);
       if (breaks) CHECK(rank.layout.ghost_count() > 0);  // the blocks may fall on separate ranks whole
-      rank.halo.motion = [&ranks, r] {
-        exchange(
-            ranks, r,
-            [](WorldState& to, std::uint32_t i, const WorldState& from, std::uint32_t j) {
-              to.particles.position[i] = from.particles.position[j];
-              to.particles.velocity[i] = from.particles.velocity[j];
-            },
-            true);
-      };
+      rank.halo.motion = [&ranks, r] { exchange_motion(ranks, r); };
       rank.halo.dilatation = [&ranks, r, control] {
         if (control) return;
         exchange(ranks, r, [](WorldState& to, std::uint32_t i, const WorldState& from, std::uint32_t j) {
@@ -262,24 +266,16 @@ TEST_CASE("local worlds: stepped in lockstep with copied halos, every owned part
 TEST_CASE("local worlds: two blocks collide across ranks through contact ghosts, as in one process") {
   // They touch at about step 50 and separate again; 2 and 3 ranks, then 2 ranks without contact ghosts
   // (the blocks then pass through each other).
-  lockstep_matches_one_process(std::filesystem::path(PERIFX_SOURCE_DIR) / "tests/engine/distributed/contact_blocks.json",
-                               200, {2, 3, -2}, false, true);
+  lockstep_matches_one_process(kContactBlocks, 200, {2, 3, -2}, false, true);
 }
 
 TEST_CASE("local worlds: contact ghosts: a translation of everything keeps them, particles moving apart refresh them") {
   // The two blocks at 2 ranks, their contact ghosts refreshed, then positions set by hand (no step):
   // velocities and accelerations zero, so the look-ahead is zero (no colliders, no conditions).
-  scene::Scene sc = scene::load_scene_file(std::filesystem::path(PERIFX_SOURCE_DIR) /
-                                           "tests/engine/distributed/contact_blocks.json");
-  const World source(sc);
+  const World source(scene::load_scene_file(kContactBlocks));
   const WorldState& full = source.state();
-  const auto domains = distributed::split_by_work(full, 2);
-  std::vector<Rank> ranks(2);
-  for (std::size_t r = 0; r < ranks.size(); ++r) {
-    ranks[r].layout = distributed::make_layout(full, domains, static_cast<int>(r));
-    ranks[r].world = distributed::make_local_world(full, ranks[r].layout);
-    REQUIRE(ranks[r].world->contact.enabled);
-  }
+  std::vector<Rank> ranks = split_ranks(full, 2);
+  for (const auto& rank : ranks) REQUIRE(rank.world->contact.enabled);
   refresh_contact_ghosts(ranks);
   const double skin = ranks[0].layout.contact_skin, layer = ranks[0].layout.contact_layer;
   REQUIRE(skin > 0.0);
@@ -369,19 +365,8 @@ TEST_CASE("local worlds: contact ghosts: a translation of everything keeps them,
 }
 
 TEST_CASE("local worlds: contact ghosts: a refresh sends the records of entering particles only and sets what a whole refresh sets") {
-  scene::Scene sc = scene::load_scene_file(std::filesystem::path(PERIFX_SOURCE_DIR) /
-                                           "tests/engine/distributed/contact_blocks.json");
-  const World source(sc);
+  const World source(scene::load_scene_file(kContactBlocks));
   const WorldState& full = source.state();
-  const auto domains = distributed::split_by_work(full, 2);
-  auto make_ranks = [&] {
-    std::vector<Rank> ranks(2);
-    for (std::size_t r = 0; r < ranks.size(); ++r) {
-      ranks[r].layout = distributed::make_layout(full, domains, static_cast<int>(r));
-      ranks[r].world = distributed::make_local_world(full, ranks[r].layout);
-    }
-    return ranks;
-  };
   // A record: every per-particle array's element (what a contact ghost carries besides its index).
   std::size_t record = 0;
   for_each_array(full, [&](ArrayKind kind, const char*, const auto& array) {
@@ -421,7 +406,7 @@ TEST_CASE("local worlds: contact ghosts: a refresh sends the records of entering
     return bytes;
   };
 
-  std::vector<Rank> ranks = make_ranks();
+  std::vector<Rank> ranks = split_ranks(full, 2);
   // The first refresh: every particle enters, whole records.
   const std::size_t first = refresh_contact_ghosts(ranks);
   const std::size_t first_ghosts = entering(ranks);
@@ -441,7 +426,7 @@ TEST_CASE("local worlds: contact ghosts: a refresh sends the records of entering
     const Vec3 by = r == 1 ? Vec3(-layer, 0.05, 0.0) : Vec3::Zero();
     for (std::uint32_t i = l.owned_begin; i < l.owned_begin + l.owned_count; ++i) ranks[r].world->particles.position[i] += by;
   }
-  exchange_motion(ranks);
+  for (std::size_t r = 0; r < ranks.size(); ++r) exchange_motion(ranks, r);
   const std::size_t moved = refresh_contact_ghosts(ranks);
   std::size_t leaving = 0;
   const std::size_t entered = entering(ranks, &leaving);
@@ -452,7 +437,7 @@ TEST_CASE("local worlds: contact ghosts: a refresh sends the records of entering
   CHECK(moved == list_bytes(ranks) + entered * record);
   // The same ghosts, to the byte, as ranks that receive every record (a first refresh at these
   // positions).
-  std::vector<Rank> whole = make_ranks();
+  std::vector<Rank> whole = split_ranks(full, 2);
   for (std::size_t r = 0; r < ranks.size(); ++r) {
     const std::size_t base = ranks[r].layout.base_count;
     REQUIRE(whole[r].layout.base_count == base);
