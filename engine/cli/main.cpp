@@ -20,6 +20,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -133,6 +134,7 @@ perifx::scene::Scene load(const Args& a) {
     throw UsageError{"--solver expects peridynamics, fem_linear or fem_corotated, got '" + *a.solver + "'"};
   auto sc = perifx::scene::load_scene_file(a.scene);
   if (threads) sc.threads = *threads;
+  const bool scene_is_peridynamic = sc.solver == perifx::scene::Solver::peridynamics;
   if (a.solver) {
     using perifx::scene::Solver;
     sc.solver = *a.solver == "fem_linear" ? Solver::fem_linear
@@ -150,6 +152,21 @@ perifx::scene::Scene load(const Args& a) {
     // Surfaces the scene did not list (the default): an FEM run has no split mesh, so leave them out.
     sc.output.obj = sc.output.surface_ply = sc.output.cache = false;
     sc.output.surfaces_by_default = false;
+  }
+  if (sc.solver != perifx::scene::Solver::peridynamics && scene_is_peridynamic) {
+    // `--solver fem_*` runs a peridynamic scene again for comparison (README): the formats that only
+    // the peridynamic solver's embedded mesh can write are left out, and said so.
+    std::string dropped;
+    for (auto [flag, name] : {std::pair{&sc.output.obj, "obj"}, {&sc.output.surface_ply, "surface_ply"},
+                              {&sc.output.surface_vtp, "surface_vtp"}, {&sc.output.tets_vtu, "tets_vtu"},
+                              {&sc.output.cache, "cache"}, {&sc.output.gltf, "gltf"}})
+      if (*flag) {
+        *flag = false;
+        dropped += (dropped.empty() ? "" : ", ") + std::string(name);
+      }
+    if (!dropped.empty())
+      std::cerr << "perifx: --solver " << *a.solver << ": output formats " << dropped
+                << " left out (they need the peridynamic solver's embedded tet mesh)\n";
   }
   if (sc.solver != perifx::scene::Solver::peridynamics &&
       (sc.output.obj || sc.output.surface_ply || sc.output.surface_vtp || sc.output.tets_vtu || sc.output.cache ||

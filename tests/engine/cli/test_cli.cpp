@@ -216,3 +216,26 @@ TEST_CASE("cli: info --ranks N prints one row per rank covering every particle; 
   CHECK(many.code == 1);
   CHECK(many.output.find("--ranks expects 1 to the particle count") != std::string::npos);
 }
+
+TEST_CASE("cli: --solver fem_* runs a peridynamic scene again, leaving out the mesh-only formats and saying so") {
+  // The README's comparison run: the same scene (here with a ground collider, a velocity condition and
+  // the formats an artist lists) through the FEM reference solver. The formats only the embedded mesh
+  // writes are left out with a note; a scene that itself chooses FEM and lists them is still refused.
+  const fs::path dir = temp_dir("fem_override");
+  std::string text = kScene;
+  text.insert(text.rfind('}'), R"(, "output": { "formats": ["vtu", "obj", "surface_ply", "gltf"] })");
+  const fs::path scene = write(dir, "scene.json", text);
+  const auto fem = run_cli("run " + scene.string() + " --quiet --frames 2 --solver fem_corotated --out " + (dir / "fem").string());
+  CHECK(fem.code == 0);
+  CHECK(fem.output.find("--solver fem_corotated: output formats obj, surface_ply, gltf left out") != std::string::npos);
+  CHECK(fs::exists(dir / "fem" / "particles.0002.vtu"));
+  CHECK_FALSE(fs::exists(dir / "fem" / "surface.0002.obj"));
+  CHECK_FALSE(fs::exists(dir / "fem" / "animation.glb"));
+  std::string own = text;
+  own.insert(own.rfind('}'), R"(, "model": { "solver": "fem_linear" })");
+  const fs::path own_scene = write(dir, "own.json", own);
+  const auto refused = run_cli("run " + own_scene.string() + " --quiet --frames 2 --out " + (dir / "own").string());
+  CHECK(refused.code == 2);
+  CHECK(refused.output.find("/output/formats") != std::string::npos);
+  fs::remove_all(dir);
+}
