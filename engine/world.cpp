@@ -86,12 +86,12 @@ void World::step() {
 }
 
 // A re-split of a distributed run (the runtime found the work per rank drifted): rank 0 gathers the
-// whole world, every rank receives it, and the new split's local worlds continue from it. The same
-// bits as without: a local world computes what one process does from whatever it holds.
+// whole world, makes every rank's new local world from it and sends each its own; the new split's local
+// worlds continue from there. The same bits as without: a local world computes what one process does
+// from whatever it holds.
 void World::rebalance() {
   const std::vector<::perifx::distributed::Domain> domains = impl_->runtime->rebalanced_domains();
   gather();
-  impl_->runtime->broadcast_world(*impl_->state);
   impl_->earlier_times = system_times();
   const RankStats before = impl_->runtime->share();
   impl_->runtime.reset();
@@ -230,7 +230,9 @@ void World::split(const std::vector<::perifx::distributed::Domain>* domains, con
   impl_->particles = impl_->state->particles.count();
   impl_->bonds = impl_->state->bonds.count();
   try {
-    impl_->runtime = std::make_unique<distributed::Runtime>(*impl_->state, impl_->scheduler->threads(), domains, before);
+    // A re-split (`before` given): only rank 0 holds the whole world; it sends each rank its part.
+    impl_->runtime = std::make_unique<distributed::Runtime>(*impl_->state, impl_->scheduler->threads(), domains,
+                                                            before, before != nullptr);
   } catch (const std::invalid_argument& e) {  // what the runtime cannot split yet, by JSON pointer
     throw std::invalid_argument(impl_->scene.source.string() + ": " + e.what());
   }

@@ -9,6 +9,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <type_traits>
 
 #include "systems/spatial_grid.hpp"
@@ -102,10 +103,48 @@ void make_local_fem(const WorldState& full, const LocalLayout& layout, WorldStat
   f.corner_force.assign(4 * nt, Vec3::Zero());
 }
 
+// The parts of a local world that are not arrays, from the whole world or from a rank's shell of it
+// (World::split released its arrays; these stay): make_local_world and local_world_from set them alike.
+void set_local_frame(const WorldState& full, const LocalLayout& layout, WorldState& w) {
+  w.settings = full.settings;
+  w.clock = full.clock;
+  w.any_plastic = full.any_plastic;
+  w.any_anisotropic = full.any_anisotropic;
+  w.any_fracture = full.any_fracture;
+  w.bodies = full.bodies;  // names and measures only; nothing in the step reads their ranges
+  w.owned_first = layout.owned_begin;
+  w.owned_last = layout.owned_begin + layout.owned_count;
+  w.embedded.motion = full.embedded.motion;
+  w.boundary.conditions = full.boundary.conditions;
+  w.loads.loads = full.loads.loads;
+  w.fem.corotated = full.fem.corotated;
+}
+
+// After the arrays. Contact: the scene's settings, resolved as for the whole world, and the whole
+// world's largest contact distance (so every rank's list reaches as far); the pair list is built on the
+// first step. Projectiles (the same spheres on every rank): their per-block buffers.
+void finish_local_world(const WorldState& full, LocalLayout& layout, WorldState& w) {
+  const ContactState& fc = full.contact;
+  systems::setup_contact(w, fc.largest_distance);
+  systems::resize_projectiles(w);
+  layout.base_count = static_cast<std::uint32_t>(w.particles.count());
+  layout.contact_skin = kContactGhostSkin * fc.largest_distance;
+  layout.contact_layer = fc.largest_distance + layout.contact_skin;
+}
+
+// The arrays a local world sends to its rank (pack_local_world): all but the contact buffers and the
+// projectiles' per-block lists, which finish_local_world makes.
+bool travels(ArrayKind kind, std::string_view name) {
+  return kind != ArrayKind::contact && name != "projectiles.block_contacts";
+}
+
 }  // namespace
 
-LocalLayout make_layout(const WorldState& full, const std::vector<Domain>& domains, int rank) {
-  const auto ghosts = bond_ghosts(full, domains);
+LocalLayout make_layout(const WorldState& full, const std::vector<Domain>& domains, int rank,
+                        const std::vector<std::vector<std::uint32_t>>* given) {
+  std::vector<std::vector<std::uint32_t>> computed;
+  if (!given) computed = bond_ghosts(full, domains);
+  const auto& ghosts = given ? *given : computed;
   LocalLayout l;
   l.rank = rank;
   l.ranks = static_cast<int>(domains.size());
@@ -135,21 +174,14 @@ LocalLayout make_layout(const WorldState& full, const std::vector<Domain>& domai
   return l;
 }
 
-std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout& layout) {
+std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout& layout, bool to_send) {
   const Domain& d = layout.domains[static_cast<std::size_t>(layout.rank)];
   const auto& order = layout.global_of;
   const std::size_t n_full = full.particles.count(), n = order.size();
   const std::uint32_t shift = layout.owned_begin;
 
   auto w = std::make_unique<WorldState>();
-  w->settings = full.settings;
-  w->clock = full.clock;
-  w->any_plastic = full.any_plastic;
-  w->any_anisotropic = full.any_anisotropic;
-  w->any_fracture = full.any_fracture;
-  w->bodies = full.bodies;  // names and measures only; nothing in the step reads their ranges
-  w->owned_first = shift;
-  w->owned_last = shift + layout.owned_count;
+  set_local_frame(full, layout, *w);
   w->global_index = order;
 
   // Per-particle arrays: every array for_each_array lists as a particle array of full length is
@@ -174,7 +206,6 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
   // the owned particles' families; rank 0's full world keeps the mesh itself (runtime.hpp).
   const EmbeddedMesh& fe = full.embedded;
   EmbeddedMesh& e = w->embedded;
-  e.motion = fe.motion;
   through_order(fe.held_deformation, e.held_deformation);
   through_order(fe.held_tracked, e.held_tracked);
   through_order(fe.held_fits, e.held_fits);
@@ -207,7 +238,6 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
   if (full.settings.solver != scene::Solver::peridynamics) make_local_fem(full, layout, *w);
 
   // Boundary conditions: each list restricted to the owned particles.
-  w->boundary.conditions = full.boundary.conditions;
   for (const auto& list : full.boundary.particles) w->boundary.particles.push_back(owned_part(list, d, shift));
   w->boundary.constrained = owned_part(full.boundary.constrained, d, shift);
 
@@ -230,7 +260,6 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
   // Loads: particle lists restricted to the owned particles, with their patch rows.
   const LoadSet& fl = full.loads;
   LoadSet& ld = w->loads;
-  ld.loads = fl.loads;
   for (std::size_t q = 0; q < fl.loads.size(); ++q) {
     const auto& list = fl.particles[q];
     const bool has_patches = q < fl.patch_offsets.size() && !fl.patch_offsets[q].empty();
@@ -251,16 +280,88 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
     ld.patches.push_back(std::move(patches));
   }
 
-  // Contact: the scene's settings, resolved as for the whole world, and the whole world's largest
-  // contact distance (so every rank's list reaches as far); the pair list is built on the first step.
-  // Projectiles: the same spheres on every rank.
-  const ContactState& fc = full.contact;
-  systems::setup_contact(*w, fc.largest_distance);
   w->projectiles.bodies = full.projectiles.bodies;
-  systems::resize_projectiles(*w);
-  layout.base_count = static_cast<std::uint32_t>(n);
-  layout.contact_skin = kContactGhostSkin * fc.largest_distance;
-  layout.contact_layer = fc.largest_distance + layout.contact_skin;
+  if (!to_send) finish_local_world(full, layout, *w);
+  return w;
+}
+
+namespace {
+template <class V>
+void put_vector(std::vector<char>& out, const V& v) {
+  const std::uint64_t count = v.size();
+  const char* c = reinterpret_cast<const char*>(&count);
+  out.insert(out.end(), c, c + sizeof count);
+  if (count) {
+    const char* bytes = reinterpret_cast<const char*>(v.data());
+    out.insert(out.end(), bytes, bytes + count * sizeof(v[0]));
+  }
+}
+template <class V>
+void take_vector(const char*& at, const char* end, V& v) {
+  std::uint64_t count = 0;
+  if (end - at < static_cast<std::ptrdiff_t>(sizeof count)) throw std::logic_error("local world message ends early");
+  std::memcpy(&count, at, sizeof count);
+  at += sizeof count;
+  if (static_cast<std::uint64_t>(end - at) / sizeof(v[0]) < count) throw std::logic_error("local world message ends early");
+  v.resize(count);
+  if (count) std::memcpy(static_cast<void*>(v.data()), at, count * sizeof(v[0]));
+  at += count * sizeof(v[0]);
+}
+}  // namespace
+
+std::vector<char> pack_local_world(const WorldState& local, const LocalLayout& layout) {
+  std::vector<char> out;
+  put_vector(out, layout.global_of);
+  put_vector(out, std::vector<std::uint64_t>{layout.owned_begin, layout.owned_count, layout.bond_begin});
+  for (const auto* links : {&layout.sends, &layout.receives}) {
+    put_vector(out, std::vector<std::uint64_t>{links->size()});
+    for (const HaloLink& link : *links) {
+      put_vector(out, std::vector<std::int64_t>{link.rank});
+      put_vector(out, link.local);
+    }
+  }
+  // The nested lists' counts first (the receiver sizes them, then for_each_array visits each).
+  put_vector(out, std::vector<std::uint64_t>{local.boundary.particles.size(), local.loads.particles.size(),
+                                              local.loads.patch_offsets.size(), local.loads.patches.size()});
+  for_each_array(local, [&](ArrayKind kind, const char* name, const auto& array) {
+    if (travels(kind, name)) put_vector(out, array);
+  });
+  return out;
+}
+
+std::unique_ptr<WorldState> local_world_from(const WorldState& shell, LocalLayout& layout, const std::vector<char>& message) {
+  const char* at = message.data();
+  const char* const end = at + message.size();
+  take_vector(at, end, layout.global_of);
+  std::vector<std::uint64_t> counts;
+  take_vector(at, end, counts);
+  if (counts.size() != 3) throw std::logic_error("local world message: bad layout");
+  layout.owned_begin = static_cast<std::uint32_t>(counts[0]);
+  layout.owned_count = static_cast<std::uint32_t>(counts[1]);
+  layout.bond_begin = counts[2];
+  for (auto* links : {&layout.sends, &layout.receives}) {
+    take_vector(at, end, counts);
+    links->assign(counts.at(0), HaloLink{});
+    for (HaloLink& link : *links) {
+      std::vector<std::int64_t> rank;
+      take_vector(at, end, rank);
+      link.rank = static_cast<int>(rank.at(0));
+      take_vector(at, end, link.local);
+    }
+  }
+  auto w = std::make_unique<WorldState>();
+  set_local_frame(shell, layout, *w);
+  take_vector(at, end, counts);
+  if (counts.size() != 4) throw std::logic_error("local world message: bad list counts");
+  w->boundary.particles.resize(counts[0]);
+  w->loads.particles.resize(counts[1]);
+  w->loads.patch_offsets.resize(counts[2]);
+  w->loads.patches.resize(counts[3]);
+  for_each_array(*w, [&](ArrayKind kind, const char* name, auto& array) {
+    if (travels(kind, name)) take_vector(at, end, array);
+  });
+  if (at != end) throw std::logic_error("local world message: bytes left over");
+  finish_local_world(shell, layout, *w);
   return w;
 }
 

@@ -130,13 +130,28 @@ struct LocalLayout {
   std::vector<Vec3> refreshed_at;         // per owned particle: its position at the last refresh, m
 };
 
-// The layout of `rank` among `domains` (ghost lists from bond_ghosts).
-LocalLayout make_layout(const WorldState& full, const std::vector<Domain>& domains, int rank);
+// A rank's local world as bytes (its layout's local order, counts and halo links, and every array but
+// the contact buffers), made by rank 0 from the whole world; and that local world rebuilt from them on
+// its rank, whose copy of the whole world (`shell`) may have its arrays released (World::split): the
+// non-array parts (settings, clock, boundary conditions, load definitions, contact settings) come
+// from it. `layout` must hold rank, ranks and domains; local_world_from fills in the rest, so that
+// layout and world equal what make_layout and make_local_world give from the whole world. A re-split
+// sends each rank this instead of the whole world (runtime.hpp).
+std::vector<char> pack_local_world(const WorldState& local, const LocalLayout& layout);
+std::unique_ptr<WorldState> local_world_from(const WorldState& shell, LocalLayout& layout,
+                                             const std::vector<char>& message);
+
+// The layout of `rank` among `domains` (ghost lists from bond_ghosts, or `ghosts` when given: its
+// result for these domains, which a caller making several ranks' layouts computes once).
+LocalLayout make_layout(const WorldState& full, const std::vector<Domain>& domains, int rank,
+                        const std::vector<std::vector<std::uint32_t>>* ghosts = nullptr);
 
 // The local world of a layout: a copy of the owned particles and their bond ghosts, their bonds,
 // boundary conditions, loads, contact settings and projectiles, remapped to local indices. Sets the
 // layout's contact layer and skin.
-std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout& layout);
+// `to_send`: made by rank 0 for pack_local_world, which sends neither the contact buffers nor the
+// projectiles' per-block lists, so they are not made (nor the layout's contact layer).
+std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout& layout, bool to_send = false);
 
 // A contact ghost refresh, in four steps: every rank lists its occupied cells (contact_cells); the
 // lists go to every rank; each rank finds what it sends (find_contact_sends), packs it

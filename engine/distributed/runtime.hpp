@@ -75,9 +75,12 @@ class Runtime {
   // std::invalid_argument for a world the runtime cannot split (an embedded mesh whose vertex motion
   // is a test option) and std::runtime_error without MPI. `before`: the share() of the runtime this one replaces at a
   // re-split, whose running totals (traffic, steps, refreshes, contact list counters, gathers and their
-  // times) this one continues.
+  // times) this one continues. `from_rank0` (a re-split; needs `domains`): only rank 0's `full` holds
+  // the arrays (the gathered whole world); it makes every rank's local world and sends each its own
+  // (local_world.hpp, pack_local_world), and the other ranks take the rest from their `full`'s
+  // non-array parts.
   Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains = nullptr,
-          const RankStats* before = nullptr);
+          const RankStats* before = nullptr, bool from_rank0 = false);
   ~Runtime();
   Runtime(const Runtime&) = delete;
   Runtime& operator=(const Runtime&) = delete;
@@ -88,12 +91,10 @@ class Runtime {
   // settings.distributed.rebalance_interval steps it measures each rank's work (current_work: alive
   // bonds, contact candidates, kParticleWork and held rotations per owned particle); when the busiest
   // exceeds the mean by more than rebalance_drift and the equal-work split of the current work differs
-  // from the current one, the report asks for a re-split (World::step makes it: gather,
-  // broadcast_world, a new Runtime).
+  // from the current one, the report asks for a re-split (World::step makes it: gather, then a new
+  // Runtime whose local worlds rank 0 makes and sends).
   StepReport step(bool check_broken);
   const std::vector<Domain>& rebalanced_domains() const;
-  // Rank 0's `full` (its particle, bond and other arrays) on every rank, for a re-split. Collective.
-  void broadcast_world(WorldState& full);
   // This rank's step graph (its local world's systems and the halo exchanges): `perifx run --profile`.
   Scheduler& scheduler();
   // Every rank's `values` (the same count on each), rank after rank, on rank 0; empty elsewhere.

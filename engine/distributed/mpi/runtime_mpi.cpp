@@ -69,7 +69,8 @@ void gather_slices(const T* mine, std::size_t count, T* target, int rank, int ra
   }
 }
 
-enum Tag : int { kTagMotion = 11, kTagDilatation = 12, kTagThreshold = 13, kTagPieces = 14, kTagGather = 20 };
+enum Tag : int { kTagMotion = 11, kTagDilatation = 12, kTagThreshold = 13, kTagPieces = 14, kTagGather = 20,
+                 kTagLocalWorld = 30 };
 
 // Per rank, one link holding a's particles then b's (both lists of links ordered by rank).
 std::vector<HaloLink> merge_links(const std::vector<HaloLink>& a, const std::vector<HaloLink>& b) {
@@ -345,7 +346,8 @@ struct Runtime::Impl {
   }
 };
 
-Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains, const RankStats* before)
+Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains, const RankStats* before,
+                 bool from_rank0)
     : impl_(std::make_unique<Impl>()) {
   if (before) impl_->totals = *before;  // its counts of now are replaced in share()
   int started = 0, rank = 0, ranks = 1;
@@ -357,8 +359,31 @@ Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>*
   if (domains && domains->size() != static_cast<std::size_t>(ranks))
     throw std::logic_error("Runtime: a split for " + std::to_string(domains->size()) + " ranks, the job has " +
                            std::to_string(ranks));
-  m.layout = make_layout(full, domains ? *domains : split_by_work(full, ranks), rank);
-  m.local = make_local_world(full, m.layout);
+  if (from_rank0 && !domains) throw std::logic_error("Runtime: local worlds from rank 0 need the domains");
+  if (from_rank0 && rank != 0) {
+    // This rank's part, made by rank 0 from the whole world (local_world.hpp, pack_local_world).
+    std::uint64_t size = 0;
+    receive_bytes(&size, sizeof size, 0, kTagLocalWorld);
+    std::vector<char> message(size);
+    receive_bytes(message.data(), size, 0, kTagLocalWorld);
+    m.layout.rank = rank;
+    m.layout.ranks = ranks;
+    m.layout.domains = *domains;
+    m.local = local_world_from(full, m.layout, message);
+  } else {
+    if (from_rank0) {
+      const auto ghosts = bond_ghosts(full, *domains);
+      for (int q = 1; q < ranks; ++q) {  // one rank's part at a time: rank 0 holds one more local world at most
+        LocalLayout theirs = make_layout(full, *domains, q, &ghosts);
+        std::vector<char> message = pack_local_world(*make_local_world(full, theirs, true), theirs);
+        const std::uint64_t size = message.size();
+        send_bytes(&size, sizeof size, q, kTagLocalWorld);
+        send_bytes(message.data(), size, q, kTagLocalWorld);
+      }
+    }
+    m.layout = make_layout(full, domains ? *domains : split_by_work(full, ranks), rank);
+    m.local = make_local_world(full, m.layout);
+  }
   for (const auto& link : m.layout.sends) m.send_buffer.emplace_back(link.local.size());
   for (const auto& link : m.layout.receives) m.receive_buffer.emplace_back(link.local.size());
   m.requests.resize(m.layout.sends.size() + m.layout.receives.size());
@@ -502,26 +527,6 @@ std::vector<double> Runtime::gather_values(const std::vector<double>& values) {
   std::vector<double> all(impl_->layout.rank == 0 ? values.size() * static_cast<std::size_t>(impl_->layout.ranks) : 0);
   check(MPI_Gather(values.data(), count, MPI_DOUBLE, all.data(), count, MPI_DOUBLE, 0, MPI_COMM_WORLD), "gather");
   return all;
-}
-
-void Runtime::broadcast_world(WorldState& full) {
-  const int rank = impl_->layout.rank;
-  for_each_array(full, [&](ArrayKind kind, const char* name, auto& array) {
-    // Not read by a split: the mesh (rank 0's alone) but for the per-particle held rotations, and contact.
-    const bool held = std::string_view(name).rfind("embedded.held_", 0) == 0;
-    if ((kind == ArrayKind::mesh && !held) || kind == ArrayKind::contact) return;
-    std::uint64_t count = array.size();
-    check(MPI_Bcast(&count, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD), "broadcast");
-    if (rank != 0) array.resize(count);
-    auto* bytes = reinterpret_cast<char*>(array.data());
-    const std::size_t total = count * sizeof(array[0]);
-    std::size_t at = 0;
-    do {  // in pieces of at most kChunk bytes (MPI counts are int)
-      const int n = static_cast<int>(std::min(kChunk, total - at));
-      check(MPI_Bcast(bytes + at, n, MPI_BYTE, 0, MPI_COMM_WORLD), "broadcast");
-      at += static_cast<std::size_t>(n);
-    } while (at < total);
-  });
 }
 
 bool Runtime::broadcast(bool flag) {

@@ -18,7 +18,7 @@ MpiSession::~MpiSession() = default;
 void MpiSession::abort(int exit_code) const { std::exit(exit_code); }
 
 struct Runtime::Impl {};
-Runtime::Runtime(const WorldState&, int, const std::vector<Domain>*, const RankStats*) { not_built(); }
+Runtime::Runtime(const WorldState&, int, const std::vector<Domain>*, const RankStats*, bool) { not_built(); }
 Runtime::~Runtime() = default;
 int Runtime::rank() const { return 0; }
 int Runtime::ranks() const { return 1; }
@@ -28,7 +28,6 @@ bool Runtime::broadcast(bool) { not_built(); }
 RankStats Runtime::share() const { not_built(); }
 std::vector<RankStats> Runtime::gather_shares() { not_built(); }
 const std::vector<Domain>& Runtime::rebalanced_domains() const { not_built(); }
-void Runtime::broadcast_world(WorldState&) { not_built(); }
 Scheduler& Runtime::scheduler() { not_built(); }
 std::vector<double> Runtime::gather_values(const std::vector<double>&) { not_built(); }
 }  // namespace perifx::distributed

@@ -228,7 +228,8 @@ class World {
 
  private:
   [[noreturn]] void throw_instability() const;
-  // distribute() by `domains` (null: equal bonds); `before`: the replaced runtime's share, at a re-split.
+  // distribute() by `domains` (null: equal bonds); `before`: the replaced runtime's share, at a re-split
+  // (rank 0 then sends each rank its local world).
   void split(const std::vector<::perifx::distributed::Domain>* domains, const RankStats* before = nullptr);
   void rebalance();                                              // step(): the runtime's re-split
   bool any_bond_broken() const;  // any particle has a broken bond now (step(): the first break)
