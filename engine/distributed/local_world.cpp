@@ -72,7 +72,6 @@ void make_local_fem(const WorldState& full, const LocalLayout& layout, WorldStat
   std::sort(tets.begin(), tets.end());
   tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
   const std::size_t nt = tets.size(), n = order.size();
-  f.corotated = ff.corotated;
   f.dm_inverse.resize(nt);
   f.volume.resize(nt);
   f.lame_lambda.resize(nt);
@@ -286,11 +285,23 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
 }
 
 namespace {
+template <class T>
+void put_value(std::vector<char>& out, T value) {
+  const char* c = reinterpret_cast<const char*>(&value);
+  out.insert(out.end(), c, c + sizeof value);
+}
+template <class T>
+T take_value(const char*& at, const char* end) {
+  T value{};
+  if (end - at < static_cast<std::ptrdiff_t>(sizeof value)) throw std::logic_error("local world message ends early");
+  std::memcpy(&value, at, sizeof value);
+  at += sizeof value;
+  return value;
+}
 template <class V>
 void put_vector(std::vector<char>& out, const V& v) {
   const std::uint64_t count = v.size();
-  const char* c = reinterpret_cast<const char*>(&count);
-  out.insert(out.end(), c, c + sizeof count);
+  put_value(out, count);
   if (count) {
     const char* bytes = reinterpret_cast<const char*>(v.data());
     out.insert(out.end(), bytes, bytes + count * sizeof(v[0]));
@@ -298,10 +309,7 @@ void put_vector(std::vector<char>& out, const V& v) {
 }
 template <class V>
 void take_vector(const char*& at, const char* end, V& v) {
-  std::uint64_t count = 0;
-  if (end - at < static_cast<std::ptrdiff_t>(sizeof count)) throw std::logic_error("local world message ends early");
-  std::memcpy(&count, at, sizeof count);
-  at += sizeof count;
+  const auto count = take_value<std::uint64_t>(at, end);
   if (static_cast<std::uint64_t>(end - at) / sizeof(v[0]) < count) throw std::logic_error("local world message ends early");
   v.resize(count);
   if (count) std::memcpy(static_cast<void*>(v.data()), at, count * sizeof(v[0]));
@@ -312,17 +320,20 @@ void take_vector(const char*& at, const char* end, V& v) {
 std::vector<char> pack_local_world(const WorldState& local, const LocalLayout& layout) {
   std::vector<char> out;
   put_vector(out, layout.global_of);
-  put_vector(out, std::vector<std::uint64_t>{layout.owned_begin, layout.owned_count, layout.bond_begin});
+  put_value(out, layout.owned_begin);
+  put_value(out, layout.owned_count);
+  put_value(out, layout.bond_begin);
   for (const auto* links : {&layout.sends, &layout.receives}) {
-    put_vector(out, std::vector<std::uint64_t>{links->size()});
+    put_value(out, std::uint64_t{links->size()});
     for (const HaloLink& link : *links) {
-      put_vector(out, std::vector<std::int64_t>{link.rank});
+      put_value(out, link.rank);
       put_vector(out, link.local);
     }
   }
   // The nested lists' counts first (the receiver sizes them, then for_each_array visits each).
-  put_vector(out, std::vector<std::uint64_t>{local.boundary.particles.size(), local.loads.particles.size(),
-                                              local.loads.patch_offsets.size(), local.loads.patches.size()});
+  for (const std::size_t lists : {local.boundary.particles.size(), local.loads.particles.size(),
+                                  local.loads.patch_offsets.size(), local.loads.patches.size()})
+    put_value(out, std::uint64_t{lists});
   for_each_array(local, [&](ArrayKind kind, const char* name, const auto& array) {
     if (travels(kind, name)) put_vector(out, array);
   });
@@ -333,30 +344,20 @@ std::unique_ptr<WorldState> local_world_from(const WorldState& shell, LocalLayou
   const char* at = message.data();
   const char* const end = at + message.size();
   take_vector(at, end, layout.global_of);
-  std::vector<std::uint64_t> counts;
-  take_vector(at, end, counts);
-  if (counts.size() != 3) throw std::logic_error("local world message: bad layout");
-  layout.owned_begin = static_cast<std::uint32_t>(counts[0]);
-  layout.owned_count = static_cast<std::uint32_t>(counts[1]);
-  layout.bond_begin = counts[2];
+  layout.owned_begin = take_value<decltype(layout.owned_begin)>(at, end);
+  layout.owned_count = take_value<decltype(layout.owned_count)>(at, end);
+  layout.bond_begin = take_value<decltype(layout.bond_begin)>(at, end);
   for (auto* links : {&layout.sends, &layout.receives}) {
-    take_vector(at, end, counts);
-    links->assign(counts.at(0), HaloLink{});
+    links->assign(take_value<std::uint64_t>(at, end), HaloLink{});
     for (HaloLink& link : *links) {
-      std::vector<std::int64_t> rank;
-      take_vector(at, end, rank);
-      link.rank = static_cast<int>(rank.at(0));
+      link.rank = take_value<int>(at, end);
       take_vector(at, end, link.local);
     }
   }
   auto w = std::make_unique<WorldState>();
   set_local_frame(shell, layout, *w);
-  take_vector(at, end, counts);
-  if (counts.size() != 4) throw std::logic_error("local world message: bad list counts");
-  w->boundary.particles.resize(counts[0]);
-  w->loads.particles.resize(counts[1]);
-  w->loads.patch_offsets.resize(counts[2]);
-  w->loads.patches.resize(counts[3]);
+  for (auto* lists : {&w->boundary.particles, &w->loads.particles, &w->loads.patch_offsets, &w->loads.patches})
+    lists->resize(take_value<std::uint64_t>(at, end));
   for_each_array(*w, [&](ArrayKind kind, const char* name, auto& array) {
     if (travels(kind, name)) take_vector(at, end, array);
   });

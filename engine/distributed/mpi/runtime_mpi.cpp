@@ -371,8 +371,10 @@ Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>*
     m.layout.domains = *domains;
     m.local = local_world_from(full, m.layout, message);
   } else {
+    // At a re-split the ghost lists of every rank are computed once here, for all the layouts.
+    std::vector<std::vector<std::uint32_t>> ghosts;
     if (from_rank0) {
-      const auto ghosts = bond_ghosts(full, *domains);
+      ghosts = bond_ghosts(full, *domains);
       for (int q = 1; q < ranks; ++q) {  // one rank's part at a time: rank 0 holds one more local world at most
         LocalLayout theirs = make_layout(full, *domains, q, &ghosts);
         std::vector<char> message = pack_local_world(*make_local_world(full, theirs, true), theirs);
@@ -381,7 +383,7 @@ Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>*
         send_bytes(message.data(), size, q, kTagLocalWorld);
       }
     }
-    m.layout = make_layout(full, domains ? *domains : split_by_work(full, ranks), rank);
+    m.layout = make_layout(full, domains ? *domains : split_by_work(full, ranks), rank, from_rank0 ? &ghosts : nullptr);
     m.local = make_local_world(full, m.layout);
   }
   for (const auto& link : m.layout.sends) m.send_buffer.emplace_back(link.local.size());
