@@ -2,12 +2,14 @@
 
 #include <oneapi/tbb/parallel_reduce.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <optional>
 #include <stdexcept>
+#include <type_traits>
 
 #include "distributed/decomposition.hpp"
 #include "distributed/runtime.hpp"
@@ -39,16 +41,18 @@ struct World::Impl {
   bool profiling = false;                        // set_profiling's last word
   std::vector<SystemTime> earlier_times;         // profile of the step graphs before the last re-split
   std::size_t particles = 0, bonds = 0;  // the whole world's counts (other ranks free its arrays)
+  bool shell = false;                    // WorldBuild::shell: no arrays; distribute() fills the above
 
   ~Impl() { scheduler.reset(); }  // the graph's nodes reference the state; tear them down first
 };
 
 World World::from_file(const std::filesystem::path& scene_file) { return World(scene::load_scene_file(scene_file)); }
 
-World::World(const scene::Scene& scene) : impl_(std::make_unique<Impl>()) {
+World::World(const scene::Scene& scene, WorldBuild build) : impl_(std::make_unique<Impl>()) {
   impl_->scene = scene;
   impl_->scheduler = std::make_unique<Scheduler>(scene.threads);
-  impl_->state = setup::build_world_state(scene, *impl_->scheduler, &impl_->setup_times);
+  impl_->shell = build == WorldBuild::shell;
+  impl_->state = setup::build_world_state(scene, *impl_->scheduler, &impl_->setup_times, impl_->shell);
   for (auto& system : systems::step_pipeline(*impl_->state)) impl_->scheduler->add(std::move(system));
   impl_->scheduler->build();
 }
@@ -63,6 +67,7 @@ void World::step() {
   const bool check_broken = w.any_fracture && c.first_break_step == Clock::kNoBreak;
   // A distributed world steps its local part; its report carries the whole job's health and breaks.
   distributed::StepReport report;
+  if (impl_->shell && !impl_->runtime) throw std::logic_error("World::step: a shell (WorldBuild::shell) steps once distributed");
   if (impl_->runtime) {
     report = impl_->runtime->step(check_broken);
   } else {
@@ -225,23 +230,25 @@ void World::distribute() {
 }
 
 void World::split(const std::vector<::perifx::distributed::Domain>* domains, const RankStats* before) {
-  // Ranks other than 0 release their mesh below; whether there is one stays everybody's answer.
-  impl_->embedded_mesh = impl_->embedded_mesh || !impl_->state->embedded.tets.empty();
-  impl_->particles = impl_->state->particles.count();
-  impl_->bonds = impl_->state->bonds.count();
+  // Rank 0 holds the whole world (as built, loaded from a checkpoint or gathered); the others hold a
+  // shell or released arrays. Its counts, clock and whether it has a mesh are everybody's.
+  WorldState& w = *impl_->state;
+  std::array<std::uint64_t, 3> whole{w.particles.count(), w.bonds.count(),
+                                     impl_->embedded_mesh || !w.embedded.tets.empty()};
+  distributed::broadcast_bytes(whole.data(), sizeof whole);
+  static_assert(std::is_trivially_copyable_v<Clock>);
+  distributed::broadcast_bytes(&w.clock, sizeof w.clock);
+  impl_->particles = whole[0];
+  impl_->bonds = whole[1];
+  impl_->embedded_mesh = whole[2] != 0;
   try {
-    // A re-split (`before` given): only rank 0 holds the whole world; it sends each rank its part.
-    impl_->runtime = std::make_unique<distributed::Runtime>(*impl_->state, impl_->scheduler->threads(), domains,
-                                                            before, before != nullptr);
+    // Rank 0 makes every rank's local world and sends each its own.
+    impl_->runtime = std::make_unique<distributed::Runtime>(w, impl_->scheduler->threads(), domains, before);
   } catch (const std::invalid_argument& e) {  // what the runtime cannot split yet, by JSON pointer
     throw std::invalid_argument(impl_->scene.source.string() + ": " + e.what());
   }
-  if (impl_->runtime->rank() != 0) {
-    // Rank 0 writes the output from its full world; the others step their local worlds only.
-    for_each_array(*impl_->state, [](ArrayKind, const char*, auto& array) {
-      std::remove_reference_t<decltype(array)>().swap(array);
-    });
-  }
+  // Rank 0 writes the output from its whole world; the others step their local worlds only.
+  if (impl_->runtime->rank() != 0) setup::release_arrays(w);
 }
 
 void World::gather() {
@@ -255,6 +262,7 @@ int World::rank() const { return impl_->runtime ? impl_->runtime->rank() : 0; }
 std::uint64_t World::rebalances() const { return impl_->rebalances; }
 int World::ranks() const { return impl_->runtime ? impl_->runtime->ranks() : 1; }
 bool World::distributed() const { return impl_->runtime != nullptr; }
+bool World::shell() const { return impl_->shell; }
 
 MemoryUse World::memory() const {
   MemoryUse m;
@@ -462,15 +470,18 @@ std::string World::load_checkpoint(const std::filesystem::path& file) {
                                                   particle_count(), bond_count());
   if (!why.empty())
     throw scene::SceneError(impl_->scene.source.string(), "", "cannot resume from checkpoint '" + file.string() + "': " + why);
-  io::read_checkpoint(file, state_mutable());
   impl_->stable_dt = 0.0;
   impl_->stable_bound.reset();
-  if (impl_->runtime) {
-    // Every rank read the whole world (the file restores every array, also those other ranks had
-    // freed): split it again, from the checkpoint's state.
-    impl_->runtime.reset();
-    distribute();
+  if (!impl_->runtime) {
+    if (impl_->shell) throw std::logic_error("World::load_checkpoint: a shell loads a checkpoint only once distributed");
+    io::read_checkpoint(file, state_mutable());
+    return h.note;
   }
+  // Rank 0 reads the whole world (the other ranks only the header) and splits it again from the
+  // checkpoint's state; the others take its clock with their part.
+  if (rank() == 0) io::read_checkpoint(file, state_mutable());
+  impl_->runtime.reset();
+  split(nullptr);
   return h.note;
 }
 

@@ -445,7 +445,7 @@ void allocate_pairs(WorldState& w) {
 
 }  // namespace
 
-void setup_contact(WorldState& w, double largest_distance) {
+void resolve_contact(WorldState& w, double largest_distance) {
   const auto& sc = w.settings.contact;
   auto& c = w.contact;
   c.enabled = sc.mode == scene::Contact::Mode::on ||
@@ -464,7 +464,11 @@ void setup_contact(WorldState& w, double largest_distance) {
     c.largest_distance = c.distance_factor * largest;
   }
   c.pairs.skin = kSkinFraction * c.largest_distance;
-  allocate_pairs(w);
+}
+
+void setup_contact(WorldState& w, double largest_distance) {
+  resolve_contact(w, largest_distance);
+  if (w.contact.enabled) allocate_pairs(w);
 }
 
 void replace_contact_tail(WorldState& w, std::size_t kept) {

@@ -15,7 +15,7 @@ void allocate_grid(SpatialGrid& g, std::size_t n, double cell_edge) {
   bucket.resize(n);
   sorted.resize(n);
   sorted_key.resize(n);
-  sorted_position.resize(n);
+  sorted_position.assign(n, Vec3::Zero());  // Eigen leaves a resized Vec3 unset (checkpoints save it)
   start.assign(table + 1, 0);
   cursor.assign(table, 0);
 }

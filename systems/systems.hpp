@@ -38,6 +38,9 @@ double strength_noise(const Vec3& x, double feature_size, std::uint64_t seed);  
 // A distributed run's local world passes the whole world's largest contact distance (its pair
 // list's reach and skin must be the whole world's); 0: this world's own.
 void setup_contact(WorldState& world, double largest_distance = 0.0);
+// Its settings, particle sizes and reach only, without the pair list's buffers (a distributed run's
+// shell world, engine/setup/world_setup.hpp).
+void resolve_contact(WorldState& world, double largest_distance = 0.0);
 void setup_projectiles(WorldState& world);
 // A distributed run's contact-ghost refresh replaced the particles from `kept` on (engine/distributed/
 // local_world.cpp): keeps the pair list's pairs among the first `kept` particles, drops those with the

@@ -426,14 +426,17 @@ int cmd_run(const Args& a) {
     }
   }
   perifx::setup::preflight(sc, !a.force);  // meshes checked, memory estimated (refused unless --force)
-  perifx::World world(sc);
+  // Under mpirun the ranks other than 0 build a shell and receive their part from rank 0 (World::distribute),
+  // which alone builds, checks and writes the whole world; a refusal there stops the job.
+  const bool distributed = a.mpi && a.mpi->active();
+  perifx::World world(sc, distributed && a.mpi->rank() != 0 ? perifx::WorldBuild::shell : perifx::WorldBuild::whole);
   const bool tty = ::isatty(STDERR_FILENO) && talk;
   if (talk)
     std::cerr << "perifx: " << world.scene().name << ": " << world.particle_count() << " particles, "
               << world.bond_count() << " bonds, " << world.threads() << " threads\n";
   std::ostringstream silent;  // --quiet / json: the time-step report is dropped (its error still goes to stderr)
-  if (!report_time_step(world, talk ? std::cerr : silent)) return kUnstable;
-  if (a.mpi && a.mpi->active()) {
+  if (!world.shell() && !report_time_step(world, talk ? std::cerr : silent)) return kUnstable;
+  if (distributed) {
     world.distribute();
     if (talk) std::cerr << "perifx: distributed over " << world.ranks() << " MPI ranks\n";
   }

@@ -132,11 +132,11 @@ struct LocalLayout {
 
 // A rank's local world as bytes (its layout's local order, counts and halo links, and every array but
 // the contact buffers), made by rank 0 from the whole world; and that local world rebuilt from them on
-// its rank, whose copy of the whole world (`shell`) may have its arrays released (World::split): the
-// non-array parts (settings, clock, boundary conditions, load definitions, contact settings) come
-// from it. `layout` must hold rank, ranks and domains; local_world_from fills in the rest, so that
-// layout and world equal what make_layout and make_local_world give from the whole world. A re-split
-// sends each rank this instead of the whole world (runtime.hpp).
+// its rank, which holds a shell of the world (WorldBuild::shell, or a whole world whose arrays World::split
+// released): the non-array parts (settings, clock, boundary conditions, load definitions, contact
+// settings) come from it. `layout` must hold rank, ranks and domains; local_world_from fills in the
+// rest, so that layout and world equal what make_layout and make_local_world give from the whole
+// world. Every split sends each rank this (runtime.hpp).
 std::vector<char> pack_local_world(const WorldState& local, const LocalLayout& layout);
 std::unique_ptr<WorldState> local_world_from(const WorldState& shell, LocalLayout& layout,
                                              const std::vector<char>& message);

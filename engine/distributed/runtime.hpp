@@ -62,6 +62,9 @@ inline int launcher_ranks() {
   return v ? std::max(1, std::atoi(v)) : 1;
 }
 
+// Rank 0's `bytes` bytes at `data`, on every rank. Collective; throws std::runtime_error without MPI.
+void broadcast_bytes(void* data, std::size_t bytes);
+
 struct StepReport {
   std::uint64_t unstable_particle = ParticleState::kAllStable;  // lowest global index over all ranks
   bool any_broken = false;  // some owned particle on some rank has a broken bond (when asked)
@@ -70,17 +73,18 @@ struct StepReport {
 
 class Runtime {
  public:
-  // Splits `full` over the ranks of MPI_COMM_WORLD (by `domains`, or split_by_work's listed bonds) and
-  // builds this rank's local world and its step graph on `threads` threads. Collective. Throws
+  // Splits `full` over the ranks of MPI_COMM_WORLD (by `domains`, the same on every rank, or by rank
+  // 0's split_by_work) and builds this rank's local world and its step graph on `threads` threads.
+  // Only rank 0's `full` needs its arrays (the whole world as built, loaded or gathered): rank 0 makes
+  // every rank's local world and sends each its own (local_world.hpp, pack_local_world); the other
+  // ranks take the rest from their `full`'s non-array parts (a shell, setup/world_setup.hpp, or a
+  // world whose arrays were released), which must equal rank 0's. Collective. Throws
   // std::invalid_argument for a world the runtime cannot split (an embedded mesh whose vertex motion
-  // is a test option) and std::runtime_error without MPI. `before`: the share() of the runtime this one replaces at a
-  // re-split, whose running totals (traffic, steps, refreshes, contact list counters, gathers and their
-  // times) this one continues. `from_rank0` (a re-split; needs `domains`): only rank 0's `full` holds
-  // the arrays (the gathered whole world); it makes every rank's local world and sends each its own
-  // (local_world.hpp, pack_local_world), and the other ranks take the rest from their `full`'s
-  // non-array parts.
+  // is a test option) and std::runtime_error without MPI. `before`: the share() of the runtime this
+  // one replaces at a re-split, whose running totals (traffic, steps, refreshes, contact list
+  // counters, gathers and their times) this one continues.
   Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains = nullptr,
-          const RankStats* before = nullptr, bool from_rank0 = false);
+          const RankStats* before = nullptr);
   ~Runtime();
   Runtime(const Runtime&) = delete;
   Runtime& operator=(const Runtime&) = delete;

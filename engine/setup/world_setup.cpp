@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <string_view>
+#include <type_traits>
 
 #include "geometry/geometry.hpp"
 #include "systems/huge_pages.hpp"
@@ -67,8 +68,12 @@ bool can_yield(const scene::Material& m) {
   return std::isfinite(m.yield_energy) || (m.yield_stress > 0.0 && std::isfinite(m.yield_stress));
 }
 
+void release_arrays(WorldState& w) {
+  for_each_array(w, [](ArrayKind, const char*, auto& array) { std::remove_reference_t<decltype(array)>().swap(array); });
+}
+
 std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Scheduler& scheduler,
-                                              std::vector<PhaseTime>* times) {
+                                              std::vector<PhaseTime>* times, bool shell) {
   // Phase timer: each call closes the phase that began at the previous one.
   auto last = std::chrono::steady_clock::now();
   auto phase = [&](const char* name) {
@@ -100,6 +105,18 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   scheduler.execute([&] { add_bodies(scene, w); });
   phase("bodies (mesh, Morton order, particles)");
   w.settings.max_speed = max_speed(scene, w);
+  if (shell) {
+    // What a local world takes from the whole world besides its arrays (engine/distributed/
+    // local_world.cpp: set_local_frame, finish_local_world), resolved as below; then no arrays.
+    w.boundary.conditions = scene.boundary_conditions;
+    w.loads.loads = scene.loads;
+    w.fem.corotated = scene.solver == scene::Solver::fem_corotated;
+    systems::resolve_contact(w);  // the whole world's contact reach
+    if (fem) w.contact.enabled = false;
+    release_arrays(w);
+    phase("shell (arrays left to rank 0)");
+    return world;
+  }
   scheduler.execute([&] { allocate_step_state(w); });  // parallel page clearing, in the world's arena
   resolve_boundary_conditions(scene.boundary_conditions, w);
   phase("step state and boundary conditions");

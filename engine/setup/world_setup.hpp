@@ -23,9 +23,15 @@ struct PhaseTime {
 };
 
 // The whole world for `scene`; setup work runs in the scheduler's arena. Appends the wall time of
-// each phase to `times` when given.
+// each phase to `times` when given. `shell`: for a rank other than 0 of a distributed run, which
+// receives its part from rank 0 (World::split): the settings, clock, flags, bodies' names and
+// measures, boundary-condition and load definitions and contact reach that make a local world's
+// non-array parts, the same as the whole world's, and no arrays (the bodies are meshed for their
+// measures, then released); no families, embedded mesh, model constants or contact buffers.
 std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Scheduler& scheduler,
-                                              std::vector<PhaseTime>* times = nullptr);
+                                              std::vector<PhaseTime>* times = nullptr, bool shell = false);
+// Frees every array for_each_array lists (a shell; a distributed run's other ranks after a split).
+void release_arrays(WorldState& w);
 
 // bodies.cpp: bodies, particles and their mesh (appends to w.particles, w.mesh, w.bodies, w.model.horizon).
 void add_bodies(const scene::Scene& scene, WorldState& w);

@@ -5,6 +5,7 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
@@ -91,6 +92,15 @@ int int_count(std::size_t count, const char* what) {
 }
 
 }  // namespace
+
+void broadcast_bytes(void* data, std::size_t bytes) {
+  int started = 0;
+  MPI_Initialized(&started);
+  if (!started) throw std::runtime_error("the distributed runtime needs MPI started (run under mpirun)");
+  char* p = static_cast<char*>(data);
+  for (std::size_t at = 0; at < bytes; at += kChunk)
+    check(MPI_Bcast(p + at, static_cast<int>(std::min(kChunk, bytes - at)), MPI_BYTE, 0, MPI_COMM_WORLD), "broadcast");
+}
 
 MpiSession::MpiSession(int& argc, char**& argv) {
   if (!launched_by_mpirun()) return;
@@ -346,8 +356,7 @@ struct Runtime::Impl {
   }
 };
 
-Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains, const RankStats* before,
-                 bool from_rank0)
+Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains, const RankStats* before)
     : impl_(std::make_unique<Impl>()) {
   if (before) impl_->totals = *before;  // its counts of now are replaced in share()
   int started = 0, rank = 0, ranks = 1;
@@ -359,8 +368,27 @@ Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>*
   if (domains && domains->size() != static_cast<std::size_t>(ranks))
     throw std::logic_error("Runtime: a split for " + std::to_string(domains->size()) + " ranks, the job has " +
                            std::to_string(ranks));
-  if (from_rank0 && !domains) throw std::logic_error("Runtime: local worlds from rank 0 need the domains");
-  if (from_rank0 && rank != 0) {
+  // The first split is rank 0's plan (the other ranks may hold a shell: WorldBuild::shell); its
+  // ranges and work go to every rank, which is all a layout reads of the other ranks' domains.
+  std::vector<Domain> planned;
+  if (!domains) {
+    if (rank == 0) planned = split_by_work(full, ranks);
+    planned.resize(static_cast<std::size_t>(ranks));
+    std::vector<std::uint64_t> ranges(4 * planned.size());
+    for (std::size_t q = 0; q < planned.size(); ++q) {
+      const Domain& d = planned[q];
+      std::copy_n(std::array<std::uint64_t, 4>{d.first, d.last, d.bonds, d.work}.begin(), 4, ranges.begin() + 4 * q);
+    }
+    broadcast_bytes(ranges.data(), ranges.size() * sizeof(std::uint64_t));
+    for (std::size_t q = 0; q < planned.size(); ++q) {
+      planned[q].first = static_cast<std::uint32_t>(ranges[4 * q]);
+      planned[q].last = static_cast<std::uint32_t>(ranges[4 * q + 1]);
+      planned[q].bonds = ranges[4 * q + 2];
+      planned[q].work = ranges[4 * q + 3];
+    }
+    domains = &planned;
+  }
+  if (rank != 0) {
     // This rank's part, made by rank 0 from the whole world (local_world.hpp, pack_local_world).
     std::uint64_t size = 0;
     receive_bytes(&size, sizeof size, 0, kTagLocalWorld);
@@ -371,19 +399,17 @@ Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>*
     m.layout.domains = *domains;
     m.local = local_world_from(full, m.layout, message);
   } else {
-    // At a re-split the ghost lists of every rank are computed once here, for all the layouts.
-    std::vector<std::vector<std::uint32_t>> ghosts;
-    if (from_rank0) {
-      ghosts = bond_ghosts(full, *domains);
-      for (int q = 1; q < ranks; ++q) {  // one rank's part at a time: rank 0 holds one more local world at most
-        LocalLayout theirs = make_layout(full, *domains, q, &ghosts);
-        std::vector<char> message = pack_local_world(*make_local_world(full, theirs, true), theirs);
-        const std::uint64_t size = message.size();
-        send_bytes(&size, sizeof size, q, kTagLocalWorld);
-        send_bytes(message.data(), size, q, kTagLocalWorld);
-      }
+    // Every rank's ghost lists, computed once for all the layouts; one part at a time, so rank 0
+    // holds one more local world at most.
+    const std::vector<std::vector<std::uint32_t>> ghosts = bond_ghosts(full, *domains);
+    for (int q = 1; q < ranks; ++q) {
+      LocalLayout theirs = make_layout(full, *domains, q, &ghosts);
+      std::vector<char> message = pack_local_world(*make_local_world(full, theirs, true), theirs);
+      const std::uint64_t size = message.size();
+      send_bytes(&size, sizeof size, q, kTagLocalWorld);
+      send_bytes(message.data(), size, q, kTagLocalWorld);
     }
-    m.layout = make_layout(full, domains ? *domains : split_by_work(full, ranks), rank, from_rank0 ? &ghosts : nullptr);
+    m.layout = make_layout(full, *domains, rank, &ghosts);
     m.local = make_local_world(full, m.layout);
   }
   for (const auto& link : m.layout.sends) m.send_buffer.emplace_back(link.local.size());

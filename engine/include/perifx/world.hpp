@@ -120,11 +120,17 @@ struct DomainView {
   std::uint64_t halo_bytes_per_step = 0;   // bytes it receives per step
 };
 
+// What World's constructor builds. `shell`: for a rank other than 0 of a distributed run, which
+// receives its part of the world from rank 0 at distribute() and so need not build the whole world
+// (nor hold it: its families, bonds and embedded mesh are rank 0's alone). A shell holds the scene's
+// settings, the clock and the bodies' names and measures, and no arrays; it can only distribute().
+enum class WorldBuild : std::uint8_t { whole, shell };
+
 class World {
  public:
   // Loads and validates a scene file (throws scene::SceneError, geometry::GeometryError).
   static World from_file(const std::filesystem::path& scene_file);
-  explicit World(const scene::Scene& scene);
+  explicit World(const scene::Scene& scene, WorldBuild build = WorldBuild::whole);
   World(World&&) noexcept;
   World& operator=(World&&) noexcept;
   ~World();
@@ -159,10 +165,12 @@ class World {
   std::vector<DomainView> decompose(int ranks) const;
 
   // Distributed runs (issue 17; a PERIFX_MPI build started by mpirun). distribute() splits this world
-  // over the MPI job's ranks, every rank calling it on the same world: from then on step() advances
-  // this rank's share and exchanges halos with the others, bit-identical to one process. On rank 0
-  // the accessors show the whole world as of the last gather(); on other ranks the world's arrays are
-  // released and only the clock, scene and counts of step() remain. The FEM solvers are distributed
+  // over the MPI job's ranks, every rank calling it on a world of the same scene: rank 0's whole world
+  // (WorldBuild::whole), the others' shells (WorldBuild::shell, which saves them building and holding
+  // the whole world) or whole worlds. Rank 0 makes every rank's part and sends it. From then on step()
+  // advances this rank's share and exchanges halos with the others, bit-identical to one process. On
+  // rank 0 the accessors show the whole world as of the last gather(); on other ranks the world holds
+  // no arrays and only the clock, scene and counts of step() remain. The FEM solvers are distributed
   // too (a rank owns vertices; its ghosts are the other vertices of their tets). A build without MPI
   // throws std::runtime_error. All four calls are collective: every rank makes them in the same order.
   void distribute();
@@ -171,6 +179,7 @@ class World {
   int rank() const;                 // 0 in one process
   int ranks() const;                // 1 in one process (and before distribute())
   bool distributed() const;
+  bool shell() const;  // built as WorldBuild::shell
   // Re-splits so far: step() re-splits a distributed world when the work per rank drifts (the scene's
   // "distributed" settings), which changes no result bit.
   std::uint64_t rebalances() const;

@@ -24,6 +24,26 @@ using namespace perifx;
 namespace {
 
 const std::filesystem::path kTear = std::filesystem::path(PERIFX_SOURCE_DIR) / "tests/engine/distributed/mpi_tear.json";
+
+// How many arrays of two worlds differ in a byte (each named by a failed CHECK), in for_each_array's
+// order; fails when both are empty.
+std::size_t differing_arrays(const WorldState& expected, const WorldState& rebuilt) {
+  std::vector<std::pair<std::string, std::string>> want, have;
+  auto bytes_of = [](const auto& a) { return std::string(reinterpret_cast<const char*>(a.data()), a.size() * sizeof(a[0])); };
+  for_each_array(expected, [&](ArrayKind, const char* name, const auto& a) { want.emplace_back(name, bytes_of(a)); });
+  for_each_array(rebuilt, [&](ArrayKind, const char* name, const auto& a) { have.emplace_back(name, bytes_of(a)); });
+  REQUIRE(want.size() == have.size());
+  std::size_t differing = 0, bytes = 0;
+  for (std::size_t k = 0; k < want.size(); ++k) {
+    CAPTURE(want[k].first);
+    CHECK(want[k].first == have[k].first);
+    CHECK(want[k].second == have[k].second);
+    differing += want[k].second != have[k].second;
+    bytes += want[k].second.size();
+  }
+  CHECK(bytes > 0);
+  return differing;
+}
 const std::filesystem::path kContactBlocks =
     std::filesystem::path(PERIFX_SOURCE_DIR) / "tests/engine/distributed/contact_blocks.json";
 
@@ -656,27 +676,8 @@ TEST_CASE("local worlds: a local world sent as bytes and rebuilt on a rank that 
     };
     CHECK(same_links(got.sends, made.sends));
     CHECK(same_links(got.receives, made.receives));
-    // Every array, contact buffers included (rebuilt from the same inputs), in for_each_array's order;
-    // of contact.grid.sorted_position only the length: a scratch of Eigen vectors, allocated
-    // uninitialized and written before it is read (systems/spatial_grid.cpp).
-    std::vector<std::pair<std::string, std::string>> want, have;
-    auto bytes_of = [](const char* name, const auto& a) {
-      if (std::string_view(name) == "contact.grid.sorted_position") return std::to_string(a.size());
-      return std::string(reinterpret_cast<const char*>(a.data()), a.size() * sizeof(a[0]));
-    };
-    for_each_array(*expected, [&](ArrayKind, const char* name, const auto& a) { want.emplace_back(name, bytes_of(name, a)); });
-    for_each_array(*rebuilt, [&](ArrayKind, const char* name, const auto& a) { have.emplace_back(name, bytes_of(name, a)); });
-    REQUIRE(want.size() == have.size());
-    std::size_t differing = 0, bytes = 0;
-    for (std::size_t k = 0; k < want.size(); ++k) {
-      CAPTURE(want[k].first);
-      CHECK(want[k].first == have[k].first);
-      CHECK(want[k].second == have[k].second);
-      differing += want[k].second != have[k].second;
-      bytes += want[k].second.size();
-    }
-    CHECK(bytes > 0);
-    CHECK(differing == 0);
+    // Every array, contact buffers included (rebuilt from the same inputs).
+    CHECK(differing_arrays(*expected, *rebuilt) == 0);
     // And the parts that are not arrays.
     CHECK(rebuilt->clock.step == expected->clock.step);
     CHECK(rebuilt->owned_first == expected->owned_first);
@@ -696,4 +697,71 @@ TEST_CASE("local worlds: a local world sent as bytes and rebuilt on a rank that 
   });
   MESSAGE("3 ranks: the three local worlds are " << sent << " bytes in all; the whole world " << whole << " bytes");
   CHECK(sent < 2 * whole);  // each rank's part and its ghosts: about 1/3 of the world each, not 3 worlds
+}
+
+TEST_CASE("local worlds: a rank's shell (WorldBuild::shell) holds no arrays and makes the local world the whole world makes") {
+  // Under mpirun the ranks other than 0 build a shell and receive their part from rank 0 (World::split):
+  // its non-array parts must be the whole world's. Three scenes: the tearing plate with contact; two
+  // bodies, one anisotropic, with an initial crack, loads, a projectile and colliders; the FEM beam.
+  const std::filesystem::path dir = std::filesystem::path(PERIFX_SOURCE_DIR) / "tests/engine/distributed";
+  for (const char* name : {"mpi_tear.json", "mpi_impact.json", "mpi_fem.json"}) {
+    CAPTURE(name);
+    const scene::Scene sc = scene::load_scene_file(dir / name);
+    const World whole(sc);
+    const World shell_world(sc, WorldBuild::shell);
+    CHECK(shell_world.shell());
+    CHECK_FALSE(whole.shell());
+    const WorldState& full = whole.state();
+    const WorldState& shell = shell_world.state();
+    std::size_t held = 0;
+    for_each_array(shell, [&](ArrayKind, const char*, const auto& a) { held += a.capacity(); });
+    CHECK(held == 0);
+    // What set_local_frame and finish_local_world read (local_world.cpp), field by field.
+    CHECK(shell.settings.max_speed == full.settings.max_speed);
+    CHECK(shell.settings.gravity == full.settings.gravity);
+    CHECK(shell.settings.materials.size() == full.settings.materials.size());
+    CHECK(shell.settings.colliders.size() == full.settings.colliders.size());
+    CHECK(shell.settings.projectiles.size() == full.settings.projectiles.size());
+    CHECK(shell.clock.dt == full.clock.dt);
+    CHECK(shell.any_plastic == full.any_plastic);
+    CHECK(shell.any_anisotropic == full.any_anisotropic);
+    CHECK(shell.any_fracture == full.any_fracture);
+    REQUIRE(shell.bodies.size() == full.bodies.size());
+    for (std::size_t b = 0; b < full.bodies.size(); ++b) {
+      CHECK(shell.bodies[b].name == full.bodies[b].name);
+      CHECK(shell.bodies[b].first_particle == full.bodies[b].first_particle);
+      CHECK(shell.bodies[b].particle_count == full.bodies[b].particle_count);
+      CHECK(shell.bodies[b].mean_edge_length == full.bodies[b].mean_edge_length);
+      CHECK(shell.bodies[b].horizon == full.bodies[b].horizon);
+    }
+    CHECK(shell.boundary.conditions.size() == full.boundary.conditions.size());
+    CHECK(shell.loads.loads.size() == full.loads.loads.size());
+    CHECK(shell.fem.corotated == full.fem.corotated);
+    CHECK(shell.embedded.motion == full.embedded.motion);
+    CHECK(shell.contact.enabled == full.contact.enabled);
+    CHECK(shell.contact.largest_distance == full.contact.largest_distance);
+    // And the local worlds made from it, against those made from the whole world, at 3 ranks.
+    const auto domains = distributed::split_by_work(full, 3);
+    for (int r = 0; r < 3; ++r) {
+      CAPTURE(r);
+      distributed::LocalLayout made = distributed::make_layout(full, domains, r);
+      const auto expected = distributed::make_local_world(full, made);
+      distributed::LocalLayout got;
+      got.rank = r;
+      got.ranks = 3;
+      got.domains = domains;
+      const auto rebuilt = distributed::local_world_from(shell, got, distributed::pack_local_world(*expected, made));
+      CHECK(differing_arrays(*expected, *rebuilt) == 0);
+      CHECK(got.contact_layer == made.contact_layer);
+      CHECK(got.contact_skin == made.contact_skin);
+      CHECK(rebuilt->settings.max_speed == expected->settings.max_speed);
+      CHECK(rebuilt->contact.enabled == expected->contact.enabled);
+      CHECK(rebuilt->contact.pairs.skin == expected->contact.pairs.skin);
+    }
+  }
+}
+
+TEST_CASE("local worlds: a shell steps only once distributed") {
+  World shell(scene::load_scene_file(kTear), WorldBuild::shell);
+  CHECK_THROWS_AS(shell.step(), std::logic_error);
 }
