@@ -31,6 +31,7 @@
 #include "perifx/world.hpp"
 #include "runner.hpp"
 #include "setup/preflight.hpp"
+#include "setup/world_setup.hpp"
 #include "systems/yield_law.hpp"
 #include "tools/compare.hpp"
 #include "tools/crack_stats.hpp"
@@ -155,7 +156,9 @@ perifx::scene::Scene load(const Args& a) {
   }
   if (sc.solver != perifx::scene::Solver::peridynamics && scene_is_peridynamic) {
     // `--solver fem_*` runs a peridynamic scene again for comparison (README): the formats that only
-    // the peridynamic solver's embedded mesh can write are left out, and said so.
+    // the peridynamic solver's embedded mesh can write are left out, and said so; a scene the FEM
+    // solver cannot run is refused first (no note before the error).
+    perifx::setup::check_solver(sc);
     std::string dropped;
     for (auto [flag, name] : {std::pair{&sc.output.obj, "obj"}, {&sc.output.surface_ply, "surface_ply"},
                               {&sc.output.surface_vtp, "surface_vtp"}, {&sc.output.tets_vtu, "tets_vtu"},
@@ -374,16 +377,21 @@ int cmd_info(const Args& a) {
       most_bonds = std::max(most_bonds, d.bonds);
       bonds += d.bonds;
     }
+    // An FEM world splits its vertices by tet corners (decomposition.hpp): its "bonds" are those, and
+    // a rank holds the FEM data of its tets (about a quarter of the world's per corner).
+    const bool fem = world.scene().solver != perifx::scene::Solver::peridynamics;
+    const char* const work = fem ? "tet corners" : "bonds";
+    const double bytes_per_work = fem ? (bonds ? double(mem.mesh_bytes) / double(bonds) : 0.0) : mem.bytes_per_bond;
     std::cout << "ranks            " << ranks << ": halo " << human_bytes(double(halo))
               << " per step in all, largest rank " << (bonds ? double(most_bonds) * double(ranks) / double(bonds) : 1.0)
-              << " x the mean bonds\n";
-    // A rank would hold its particles' and bonds' arrays plus a particle's arrays per ghost, at this
-    // world's bytes per particle and per bond (the mesh and contact arrays are not counted).
-    std::cout << "rank  first_particle  particles  bonds  ghosts  bond_ghosts  contact_ghosts  neighbors  halo_per_step"
-                 "  memory\n";
+              << " x the mean " << work << "\n";
+    // A rank would hold its particles' and bonds' (FEM: tets') arrays plus a particle's arrays per
+    // ghost, at this world's bytes per particle and per bond or corner (contact arrays not counted).
+    std::cout << "rank  first_particle  particles  " << (fem ? "tet_corners  ghosts  tet_ghosts" : "bonds  ghosts  bond_ghosts")
+              << "  contact_ghosts  neighbors  halo_per_step  memory\n";
     for (std::size_t r = 0; r < domains.size(); ++r) {
       const auto& d = domains[r];
-      const double bytes = double(d.particle_count + d.ghosts) * mem.bytes_per_particle + double(d.bonds) * mem.bytes_per_bond;
+      const double bytes = double(d.particle_count + d.ghosts) * mem.bytes_per_particle + double(d.bonds) * bytes_per_work;
       std::cout << r << "  " << d.first_particle << "  " << d.particle_count << "  " << d.bonds << "  " << d.ghosts
                 << "  " << d.bond_ghosts << "  " << d.contact_ghosts << "  " << d.neighbor_ranks << "  "
                 << human_bytes(double(d.halo_bytes_per_step)) << "  " << human_bytes(bytes) << "\n";

@@ -689,7 +689,7 @@ void check_time(const Scene& s, std::uint64_t frames_override) {
                                            " s)");
 }
 
-static bool material_can_break(const Material& m) {
+bool can_break(const Material& m) {
   return std::isfinite(m.critical_stretch) || (m.fracture_energy > 0.0 && std::isfinite(m.fracture_energy));
 }
 
@@ -713,7 +713,7 @@ Scene load_scene_text(const std::string& text, const fs::path& file) {
   }
   for (Body& b : s.bodies)
     if (b.geometry.jitter < 0.0)
-      b.geometry.jitter = material_can_break(s.materials[static_cast<std::size_t>(b.material)]) ? 0.3 : 0.0;
+      b.geometry.jitter = can_break(s.materials[static_cast<std::size_t>(b.material)]) ? 0.3 : 0.0;
   return s;
 }
 

@@ -68,6 +68,18 @@ bool can_yield(const scene::Material& m) {
   return std::isfinite(m.yield_energy) || (m.yield_stress > 0.0 && std::isfinite(m.yield_stress));
 }
 
+void check_solver(const scene::Scene& scene) {
+  if (scene.solver == scene::Solver::peridynamics) return;
+  for (const auto& m : scene.materials)
+    if (can_yield(m) || scene::can_break(m))
+      throw scene::SceneError(scene.source.string(), "/model/solver",
+                              "the FEM reference solver is elastic only (got a material with a finite yield_energy, "
+                              "yield_stress, critical_stretch or fracture_energy; expected solver 'peridynamics')");
+  if (!scene.cracks.empty())
+    throw scene::SceneError(scene.source.string(), "/model/solver",
+                            "initial cracks need the peridynamic solver (got an FEM solver; expected 'peridynamics')");
+}
+
 void release_arrays(WorldState& w) {
   for_each_array(w, [](ArrayKind, const char*, auto& array) { std::remove_reference_t<decltype(array)>().swap(array); });
 }
@@ -88,19 +100,12 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   for (const auto& m : scene.materials) {
     w.any_plastic = w.any_plastic || can_yield(m);
     w.any_anisotropic = w.any_anisotropic || m.anisotropy != Mat3::Identity();
-    w.any_fracture = w.any_fracture || std::isfinite(m.critical_stretch) ||
-                     (m.fracture_energy > 0.0 && std::isfinite(m.fracture_energy));
+    w.any_fracture = w.any_fracture || scene::can_break(m);
   }
 
   // FEM mode (components/fem.hpp): the particles are the mesh vertices; elastic materials only.
   const bool fem = scene.solver != scene::Solver::peridynamics;
-  if (fem && (w.any_plastic || w.any_fracture))
-    throw scene::SceneError(scene.source.string(), "/model/solver",
-                            "the FEM reference solver is elastic only (got a material with a finite yield_energy, "
-                            "yield_stress, critical_stretch or fracture_energy; expected solver 'peridynamics')");
-  if (fem && !scene.cracks.empty())
-    throw scene::SceneError(scene.source.string(), "/model/solver",
-                            "initial cracks need the peridynamic solver (got an FEM solver; expected 'peridynamics')");
+  check_solver(scene);
 
   scheduler.execute([&] { add_bodies(scene, w); });
   phase("bodies (mesh, Morton order, particles)");

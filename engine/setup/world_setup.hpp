@@ -30,6 +30,9 @@ struct PhaseTime {
 // measures, then released); no families, embedded mesh, model constants or contact buffers.
 std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Scheduler& scheduler,
                                               std::vector<PhaseTime>* times = nullptr, bool shell = false);
+// Throws SceneError (/model/solver) when the scene asks an FEM solver for what only the peridynamic one
+// does (yield, fracture, initial cracks); build_world_state calls it first.
+void check_solver(const scene::Scene& scene);
 // Frees every array for_each_array lists (a shell; a distributed run's other ranks after a split).
 void release_arrays(WorldState& w);
 

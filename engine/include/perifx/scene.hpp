@@ -283,6 +283,8 @@ inline constexpr double kMaxSpeed = 3e8;        // m/s
 inline constexpr double kMaxCoordinate = 1e9;   // m
 inline constexpr double kMaxWaveSpeed = 1e6;    // m/s, sqrt((κ + 4μ/3)/ρ) of a material
 void check_time(const Scene& scene, std::uint64_t frames = 0);
+// Whether a material can break: a finite critical stretch or a positive, finite fracture energy.
+bool can_break(const Material& material);
 // The scene format reference (markdown), generated from the spec.
 std::string scene_format_markdown();
 

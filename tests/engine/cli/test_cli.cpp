@@ -209,6 +209,12 @@ TEST_CASE("cli: info --ranks N prints one row per rank covering every particle; 
   }
   CHECK(rows == 3);
   CHECK(owned == particles);
+  CHECK(r.output.find("x the mean bonds") != std::string::npos);
+  // The FEM solver splits by tet corners and says so.
+  const auto fem = run_cli("info " + scene.string() + " --ranks 3 --solver fem_linear");
+  REQUIRE(fem.code == 0);
+  CHECK(fem.output.find("x the mean tet corners") != std::string::npos);
+  CHECK(fem.output.find("rank  first_particle  particles  tet_corners  ghosts  tet_ghosts") != std::string::npos);
   const auto bad = run_cli("info " + scene.string() + " --ranks 0");
   CHECK(bad.code == 1);
   CHECK(bad.output.find("--ranks expects an integer >= 1") != std::string::npos);
@@ -237,5 +243,11 @@ TEST_CASE("cli: --solver fem_* runs a peridynamic scene again, leaving out the m
   const auto refused = run_cli("run " + own_scene.string() + " --quiet --frames 2 --out " + (dir / "own").string());
   CHECK(refused.code == 2);
   CHECK(refused.output.find("/output/formats") != std::string::npos);
+  // A scene the FEM solver cannot run (breakable materials; it lists mesh formats) is refused with no note before the error.
+  const auto breakable = run_cli("run " + fs::path(PERIFX_SOURCE_DIR).append("tests/engine/distributed/mpi_impact.json").string() +
+                                 " --frames 1 --solver fem_linear --out " + (dir / "tear").string());
+  CHECK(breakable.code == 2);
+  CHECK(breakable.output.find("/model/solver: the FEM reference solver is elastic only") != std::string::npos);
+  CHECK(breakable.output.find("left out") == std::string::npos);
   fs::remove_all(dir);
 }
