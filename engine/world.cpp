@@ -9,9 +9,9 @@
 #include <limits>
 #include <optional>
 #include <stdexcept>
-#include <type_traits>
 
 #include "distributed/decomposition.hpp"
+#include "distributed/local_world.hpp"
 #include "distributed/runtime.hpp"
 #include "io/checkpoint.hpp"
 #include "scheduler.hpp"
@@ -233,11 +233,14 @@ void World::split(const std::vector<::perifx::distributed::Domain>* domains, con
   // Rank 0 holds the whole world (as built, loaded from a checkpoint or gathered); the others hold a
   // shell or released arrays. Its counts, clock and whether it has a mesh are everybody's.
   WorldState& w = *impl_->state;
-  std::array<std::uint64_t, 3> whole{w.particles.count(), w.bonds.count(),
-                                     impl_->embedded_mesh || !w.embedded.tets.empty()};
+  const bool lead = distributed::job_rank() == 0;
+  std::vector<char> frame = lead ? distributed::pack_world_frame(w) : std::vector<char>{};
+  std::array<std::uint64_t, 4> whole{w.particles.count(), w.bonds.count(),
+                                     impl_->embedded_mesh || !w.embedded.tets.empty(), frame.size()};
   distributed::broadcast_bytes(whole.data(), sizeof whole);
-  static_assert(std::is_trivially_copyable_v<Clock>);
-  distributed::broadcast_bytes(&w.clock, sizeof w.clock);
+  frame.resize(whole[3]);
+  distributed::broadcast_bytes(frame.data(), frame.size());
+  if (!lead) distributed::take_world_frame(w, frame);  // the clock, bounds and bodies' measures
   impl_->particles = whole[0];
   impl_->bonds = whole[1];
   impl_->embedded_mesh = whole[2] != 0;

@@ -433,10 +433,11 @@ int cmd_run(const Args& a) {
       throw UsageError{"--frames " + *a.frames + ": " + e.message()};
     }
   }
-  perifx::setup::preflight(sc, !a.force);  // meshes checked, memory estimated (refused unless --force)
+  // Meshes checked, memory estimated for the ranks on this machine (refused unless --force).
+  const bool distributed = a.mpi && a.mpi->active();
+  perifx::setup::preflight(sc, !a.force, distributed ? perifx::distributed::rank_placement() : perifx::setup::RankPlacement{});
   // Under mpirun the ranks other than 0 build a shell and receive their part from rank 0 (World::distribute),
   // which alone builds, checks and writes the whole world; a refusal there stops the job.
-  const bool distributed = a.mpi && a.mpi->active();
   perifx::World world(sc, distributed && a.mpi->rank() != 0 ? perifx::WorldBuild::shell : perifx::WorldBuild::whole);
   const bool tty = ::isatty(STDERR_FILENO) && talk;
   if (talk)

@@ -340,6 +340,45 @@ std::vector<char> pack_local_world(const WorldState& local, const LocalLayout& l
   return out;
 }
 
+std::vector<char> pack_world_frame(const WorldState& whole) {
+  std::vector<char> out;
+  static_assert(std::is_trivially_copyable_v<Clock>);
+  put_value(out, whole.clock);
+  put_value(out, whole.settings.max_speed);
+  put_value(out, whole.contact.largest_distance);
+  put_value(out, whole.contact.pairs.skin);
+  put_value(out, std::uint64_t{whole.bodies.size()});
+  for (const BodyInfo& b : whole.bodies) {
+    put_value(out, b.first_particle);
+    put_value(out, b.particle_count);
+    put_value(out, b.first_vertex);
+    put_value(out, b.vertex_count);
+    put_value(out, b.mean_edge_length);
+    put_value(out, b.horizon);
+  }
+  return out;
+}
+
+void take_world_frame(WorldState& shell, const std::vector<char>& message) {
+  const char* at = message.data();
+  const char* const end = at + message.size();
+  shell.clock = take_value<Clock>(at, end);
+  shell.settings.max_speed = take_value<double>(at, end);
+  shell.contact.largest_distance = take_value<double>(at, end);
+  shell.contact.pairs.skin = take_value<double>(at, end);
+  if (take_value<std::uint64_t>(at, end) != shell.bodies.size())
+    throw std::logic_error("world frame: another scene's bodies");
+  for (BodyInfo& b : shell.bodies) {
+    b.first_particle = take_value<std::uint32_t>(at, end);
+    b.particle_count = take_value<std::uint32_t>(at, end);
+    b.first_vertex = take_value<std::uint32_t>(at, end);
+    b.vertex_count = take_value<std::uint32_t>(at, end);
+    b.mean_edge_length = take_value<double>(at, end);
+    b.horizon = take_value<double>(at, end);
+  }
+  if (at != end) throw std::logic_error("world frame: bytes left over");
+}
+
 std::unique_ptr<WorldState> local_world_from(const WorldState& shell, LocalLayout& layout, const std::vector<char>& message) {
   const char* at = message.data();
   const char* const end = at + message.size();

@@ -138,6 +138,12 @@ struct LocalLayout {
 // rest, so that layout and world equal what make_layout and make_local_world give from the whole
 // world. Every split sends each rank this (runtime.hpp).
 std::vector<char> pack_local_world(const WorldState& local, const LocalLayout& layout);
+// What a shell (WorldBuild::shell) cannot know without meshing the bodies, from the whole world: its
+// clock, the instability bound (it depends on the bodies' extent), the contact reach and skin (the
+// largest particle), and every body's particle and vertex ranges, mean edge length and horizon.
+// World::split broadcasts it from rank 0 before every split.
+std::vector<char> pack_world_frame(const WorldState& whole);
+void take_world_frame(WorldState& shell, const std::vector<char>& message);
 std::unique_ptr<WorldState> local_world_from(const WorldState& shell, LocalLayout& layout,
                                              const std::vector<char>& message);
 

@@ -26,6 +26,7 @@
 #include "distributed/decomposition.hpp"
 #include "perifx/world.hpp"
 #include "scheduler.hpp"
+#include "setup/preflight.hpp"
 
 namespace perifx::distributed {
 
@@ -64,6 +65,12 @@ inline int launcher_ranks() {
 
 // Rank 0's `bytes` bytes at `data`, on every rank. Collective; throws std::runtime_error without MPI.
 void broadcast_bytes(void* data, std::size_t bytes);
+// The job's ranks, those sharing this rank's machine (MPI_COMM_TYPE_SHARED) and whether rank 0 is one
+// of them: the memory preflight's placement (setup/preflight.hpp). Collective; {1, 1, true} without MPI
+// or outside mpirun.
+setup::RankPlacement rank_placement();
+// This process's rank in the MPI job (MPI_COMM_WORLD), 0 without MPI or outside mpirun.
+int job_rank();
 
 struct StepReport {
   std::uint64_t unstable_particle = ParticleState::kAllStable;  // lowest global index over all ranks

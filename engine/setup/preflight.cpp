@@ -56,19 +56,27 @@ double bytes_per_bond(const scene::Scene& scene) {
          (scene.contact.mode != scene::Contact::Mode::off ? kBytesPerBondContact : 0.0);  // an upper bound
 }
 
+double bytes_per_particle(const scene::Scene& scene) {
+  return kBytesPerParticle + (scene.contact.mode != scene::Contact::Mode::off ? kBytesPerParticleContact : 0.0);
+}
+
 namespace {
 
-double per_particle_bytes(double bonds_per_particle, double per_bond) {
-  return bonds_per_particle * per_bond + kBytesPerParticle + kBytesPerTet;
+double per_particle_bytes(const scene::Scene& scene, double bonds_per_particle) {
+  return bonds_per_particle * bytes_per_bond(scene) + bytes_per_particle(scene) + kBytesPerTet;
 }
 
 [[noreturn]] void refuse(const scene::Scene& scene, const MemoryEstimate& e, const std::string& how) {
-  char buf[400];
+  char ranks[160] = "";
+  if (e.ranks > 1)
+    std::snprintf(ranks, sizeof ranks, " on this machine, for %d of the job's %d ranks (one process: %s)", e.local_ranks,
+                  e.ranks, format_bytes(e.world_bytes).c_str());
+  char buf[560];
   std::snprintf(buf, sizeof buf,
-                "not enough memory: %s (got an estimated peak of %s for %.3g particles and %.3g bonds; expected at "
-                "most the %s available; use coarser meshes, or perifx run --force)",
-                how.c_str(), format_bytes(e.bytes).c_str(), double(e.particles), e.bonds,
-                format_bytes(e.available).c_str());
+                "not enough memory: %s (got an estimated peak of %s%s for %.3g particles and %.3g bonds; expected at "
+                "most the %s available; use coarser meshes, %sor perifx run --force)",
+                how.c_str(), format_bytes(e.bytes).c_str(), ranks, double(e.particles), e.bonds,
+                format_bytes(e.available).c_str(), e.local_ranks > 1 ? "fewer ranks per machine, " : "");
   throw MemoryError(scene.source.string() + ": /bodies: " + buf);
 }
 
@@ -83,19 +91,29 @@ std::string format_bytes(double b) {
   return buf;
 }
 
-MemoryEstimate preflight(const scene::Scene& scene, bool enforce) {
+double machine_bytes(double world_bytes, const RankPlacement& p) {
+  if (p.ranks <= 1) return world_bytes;
+  const double part = kPartPeakFactor * world_bytes / p.ranks;
+  const int others = p.local_ranks - (p.holds_rank0 ? 1 : 0);
+  return (p.holds_rank0 ? world_bytes + 2.0 * part : 0.0) + others * part;
+}
+
+MemoryEstimate preflight(const scene::Scene& scene, bool enforce, const RankPlacement& placement) {
   MemoryEstimate e;
+  e.ranks = placement.ranks;
+  e.local_ranks = placement.local_ranks;
   e.available = mem_available();
   const bool limit = enforce && e.available > 0.0;
   // 1. Primitives, from their cell counts: a resolution-300 box is refused before meshing. Bonds per
   //    particle are at least the ~40 a horizon of 1.45 λ holds in a structured mesh.
   double tets = 0.0;
   for (const auto& body : scene.bodies) tets += primitive_tets(body);
-  const double early = kPeakFactor * tets * per_particle_bytes(40.0, bytes_per_bond(scene));
-  if (limit && early > e.available) {
+  const double early = kPeakFactor * tets * per_particle_bytes(scene, 40.0);
+  if (limit && machine_bytes(early, placement) > e.available) {
     e.particles = static_cast<std::size_t>(std::min(tets, 1e18));
     e.bonds = 40.0 * tets;
-    e.bytes = early;
+    e.world_bytes = early;
+    e.bytes = machine_bytes(early, placement);
     refuse(scene, e, "the primitives' meshes alone are too fine");
   }
   // 2. Every body's mesh as setup builds it; bonds from the horizon sphere's volume over the mean
@@ -112,8 +130,9 @@ MemoryEstimate preflight(const scene::Scene& scene, bool enforce) {
     const double per = fem ? 0.0 : std::min(n - 1.0, 4.0 / 3.0 * kPi * std::pow(horizon, 3) / (volume / n));
     e.particles += static_cast<std::size_t>(n);
     e.bonds += n * per;
-    e.bytes += kPeakFactor * (n * (kBytesPerParticle + per * bytes_per_bond(scene)) + double(mesh.tets.size()) * kBytesPerTet);
+    e.world_bytes += kPeakFactor * (n * (bytes_per_particle(scene) + per * bytes_per_bond(scene)) + double(mesh.tets.size()) * kBytesPerTet);
   }
+  e.bytes = machine_bytes(e.world_bytes, placement);
   e.meshed = true;
   if (limit && e.bytes > e.available) refuse(scene, e, "the meshes are too fine");
   return e;

@@ -14,20 +14,40 @@ namespace perifx::setup {
 // Measured figures (World::memory on the shipped scenes, tests/engine/test_world.cpp): per directed
 // bond 5 B (neighbour, alive flag), 8 B more when some material can yield (e^p and its mirror, float),
 // 4 B more when a weak plane cuts bonds, 1 bit more in the contact list when particle contact is on
-// (bytes_per_bond); about 440 B per particle; mesh and embedded mesh about 200 B per tet. Setup holds
-// transient arrays on top (adjacency, Morton keys, the family lists), hence the peak factor.
+// (bytes_per_bond); 377–518 B per particle (the most with a collider's surface frames: fig16 full),
+// 240–251 B more in the contact grid and pair list when contact is on; the tet mesh and the embedded
+// mesh 393 B per tet (fig01 preview, fig16 full). Setup holds transient arrays on top (adjacency, Morton
+// keys, the family lists), hence the peak factor: the full bunny's peak RSS in one process is 1.20 GiB
+// against 1003 MiB of arrays (test `preflight: …` holds the estimate above what the world holds).
 inline constexpr double kBytesPerBondState = 5.0;
 inline constexpr double kBytesPerBondPlastic = 8.0;
 inline constexpr double kBytesPerBondScale = 4.0;
 inline constexpr double kBytesPerBondContact = 0.125;
-inline constexpr double kBytesPerParticle = 440.0;
-inline constexpr double kBytesPerTet = 200.0;
+inline constexpr double kBytesPerParticle = 520.0;
+inline constexpr double kBytesPerParticleContact = 250.0;
+inline constexpr double kBytesPerTet = 400.0;
 inline constexpr double kPeakFactor = 1.25;
+
+// A distributed run's ranks on this machine (perifx run under mpirun): rank 0 builds the whole world,
+// keeps it for output and makes every other rank's part; the other ranks hold their part only
+// (World::split). Measured on the full bunny at 2 and 4 ranks (bench/README.md, "Set-up on rank 0
+// only"): a rank other than 0 peaks at 0.94–1.25 × the whole world's single-process peak over the rank
+// count; rank 0 at the whole world plus about two such parts (its own and the one it is sending).
+struct RankPlacement {
+  int ranks = 1;             // in the job
+  int local_ranks = 1;       // on this machine, sharing its memory
+  bool holds_rank0 = true;   // rank 0 is one of them
+};
+inline constexpr double kPartPeakFactor = 1.3;
+// This machine's estimated peak for a whole world of `world_bytes` (one process: world_bytes).
+double machine_bytes(double world_bytes, const RankPlacement& placement);
 
 struct MemoryEstimate {
   std::size_t particles = 0;
   double bonds = 0.0;            // directed bonds, estimated
-  double bytes = 0.0;            // estimated peak, with kPeakFactor
+  double world_bytes = 0.0;      // the whole world's estimated peak in one process, with kPeakFactor
+  double bytes = 0.0;            // this machine's estimated peak (machine_bytes; world_bytes in one process)
+  int ranks = 1, local_ranks = 1;  // the placement it was made for
   double available = -1.0;       // MemAvailable from /proc/meminfo, bytes; < 0 when unknown
   bool meshed = false;           // false: refused from the primitives' cell counts, before meshing
 };
@@ -38,13 +58,15 @@ class MemoryError : public Error {
   using Error::Error;
 };
 
-// Estimates the peak memory of `scene` (meshing every body; primitives whose cell count alone is
-// beyond the available memory are refused before meshing). Throws SceneError for a bad mesh and,
-// when `enforce`, MemoryError when the estimate exceeds the available memory.
-MemoryEstimate preflight(const scene::Scene& scene, bool enforce);
+// Estimates the peak memory of `scene` on this machine (meshing every body; primitives whose cell
+// count alone is beyond the available memory are refused before meshing), for one process or for the
+// ranks `placement` puts here. Throws SceneError for a bad mesh and, when `enforce`, MemoryError when
+// the estimate exceeds the available memory.
+MemoryEstimate preflight(const scene::Scene& scene, bool enforce, const RankPlacement& placement = {});
 
 std::string format_bytes(double bytes);  // "1.2 GiB"
-// Bytes per directed bond the world will hold for this scene (see the figures above).
+// Bytes per directed bond and per particle the world will hold for this scene (see the figures above).
 double bytes_per_bond(const scene::Scene& scene);
+double bytes_per_particle(const scene::Scene& scene);
 
 }  // namespace perifx::setup

@@ -107,21 +107,23 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   const bool fem = scene.solver != scene::Solver::peridynamics;
   check_solver(scene);
 
-  scheduler.execute([&] { add_bodies(scene, w); });
-  phase("bodies (mesh, Morton order, particles)");
-  w.settings.max_speed = max_speed(scene, w);
   if (shell) {
     // What a local world takes from the whole world besides its arrays (engine/distributed/
-    // local_world.cpp: set_local_frame, finish_local_world), resolved as below; then no arrays.
+    // local_world.cpp: set_local_frame, finish_local_world), resolved as below, without meshing a body:
+    // what needs the meshes (bodies' measures, the instability bound, the contact reach) comes from
+    // rank 0 before the split (take_world_frame).
+    for (const auto& body : scene.bodies) w.bodies.push_back(BodyInfo{body.name});
     w.boundary.conditions = scene.boundary_conditions;
     w.loads.loads = scene.loads;
     w.fem.corotated = scene.solver == scene::Solver::fem_corotated;
-    systems::resolve_contact(w);  // the whole world's contact reach
+    systems::resolve_contact(w);
     if (fem) w.contact.enabled = false;
-    release_arrays(w);
-    phase("shell (arrays left to rank 0)");
+    phase("shell (the whole world is rank 0's)");
     return world;
   }
+  scheduler.execute([&] { add_bodies(scene, w); });
+  phase("bodies (mesh, Morton order, particles)");
+  w.settings.max_speed = max_speed(scene, w);
   scheduler.execute([&] { allocate_step_state(w); });  // parallel page clearing, in the world's arena
   resolve_boundary_conditions(scene.boundary_conditions, w);
   phase("step state and boundary conditions");

@@ -24,10 +24,11 @@ struct PhaseTime {
 
 // The whole world for `scene`; setup work runs in the scheduler's arena. Appends the wall time of
 // each phase to `times` when given. `shell`: for a rank other than 0 of a distributed run, which
-// receives its part from rank 0 (World::split): the settings, clock, flags, bodies' names and
-// measures, boundary-condition and load definitions and contact reach that make a local world's
-// non-array parts, the same as the whole world's, and no arrays (the bodies are meshed for their
-// measures, then released); no families, embedded mesh, model constants or contact buffers.
+// receives its part from rank 0 (World::split): the settings, flags, bodies' names, boundary-condition
+// and load definitions and contact settings that make a local world's non-array parts, the same as the
+// whole world's, and no arrays; no body is meshed. What needs the meshes (the bodies' measures, the
+// instability bound, the contact reach) it takes from rank 0 (distributed/local_world.hpp,
+// take_world_frame).
 std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Scheduler& scheduler,
                                               std::vector<PhaseTime>* times = nullptr, bool shell = false);
 // Throws SceneError (/model/solver) when the scene asks an FEM solver for what only the peridynamic one

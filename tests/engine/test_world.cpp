@@ -116,6 +116,40 @@ TEST_CASE("memory(): a directed bond holds 5 bytes, 13 with plasticity (issue 16
   CHECK(setup::bytes_per_bond(sc) == 13.125);
 }
 
+TEST_CASE("preflight: the memory estimate covers what the world holds; a distributed run's machine holds more") {
+  // The refusal of `perifx run` compares this estimate with the memory available, so it must not fall
+  // below what the world's arrays take (World::memory, itself checked against the heap above), and
+  // should not be so far above that ordinary scenes are refused: between 1 and 2.5 times it for a
+  // brittle box with contact, a yielding box, two bodies with a collider and loads, and the FEM beam.
+  const std::filesystem::path dir = std::filesystem::path(PERIFX_SOURCE_DIR) / "tests/engine/distributed";
+  std::vector<scene::Scene> scenes;
+  auto box = test::box_scene(Vec3(0.3, 0.1, 0.1), 0.01, 2e6, 1e6);
+  box.materials[0].critical_stretch = 0.01;
+  box.contact.mode = scene::Contact::Mode::on;
+  scenes.push_back(box);
+  box.materials[0].yield_energy = 1.0;
+  scenes.push_back(box);
+  scenes.push_back(scene::load_scene_file(dir / "mpi_impact.json"));
+  scenes.push_back(scene::load_scene_file(dir / "mpi_fem.json"));
+  for (const auto& sc : scenes) {
+    CAPTURE(sc.source.string());
+    const setup::MemoryEstimate e = setup::preflight(sc, false);
+    const World world(sc);
+    const double held = double(world.memory().total_bytes);
+    MESSAGE(sc.source.filename().string() << ": estimate " << e.world_bytes / 1e6 << " MB, the world holds " << held / 1e6 << " MB");
+    CHECK(e.world_bytes >= held);
+    CHECK(e.world_bytes <= 2.5 * held);
+    CHECK(e.bytes == e.world_bytes);  // one process
+  }
+  // Under mpirun (World::split): rank 0 holds the whole world and parts, the other ranks a part each.
+  const double world = 1e9;
+  CHECK(setup::machine_bytes(world, {}) == world);
+  CHECK(setup::machine_bytes(world, {4, 4, true}) > setup::machine_bytes(world, {4, 1, true}));
+  CHECK(setup::machine_bytes(world, {4, 1, true}) > world);              // rank 0 alone
+  CHECK(setup::machine_bytes(world, {64, 1, false}) < 0.05 * world);     // one other rank of 64
+  CHECK(setup::machine_bytes(world, {64, 4, false}) == doctest::Approx(4 * setup::machine_bytes(world, {64, 1, false})));
+}
+
 TEST_CASE("stable_time_step_bound(): a lower bound on the Lanczos estimate, within a factor 3 of it") {
   // The bound (engine/setup/stable_time_step.cpp) must never exceed the stable step, or `perifx run`
   // would accept a time step that blows up: checked against the eigenvalue estimate on structured and

@@ -102,6 +102,29 @@ void broadcast_bytes(void* data, std::size_t bytes) {
     check(MPI_Bcast(p + at, static_cast<int>(std::min(kChunk, bytes - at)), MPI_BYTE, 0, MPI_COMM_WORLD), "broadcast");
 }
 
+int job_rank() {
+  int started = 0, rank = 0;
+  MPI_Initialized(&started);
+  if (started) MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  return rank;
+}
+
+setup::RankPlacement rank_placement() {
+  int started = 0;
+  MPI_Initialized(&started);
+  if (!started) return {};
+  int rank = 0, ranks = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  MPI_Comm machine;
+  check(MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank, MPI_INFO_NULL, &machine), "comm split");
+  int local = 1, lowest = rank;
+  MPI_Comm_size(machine, &local);
+  check(MPI_Allreduce(&rank, &lowest, 1, MPI_INT, MPI_MIN, machine), "allreduce");
+  MPI_Comm_free(&machine);
+  return {ranks, local, lowest == 0};
+}
+
 MpiSession::MpiSession(int& argc, char**& argv) {
   if (!launched_by_mpirun()) return;
   int provided = 0;
