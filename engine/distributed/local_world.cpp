@@ -298,46 +298,95 @@ T take_value(const char*& at, const char* end) {
   at += sizeof value;
   return value;
 }
-template <class V>
-void put_vector(std::vector<char>& out, const V& v) {
-  const std::uint64_t count = v.size();
-  put_value(out, count);
-  if (count) {
-    const char* bytes = reinterpret_cast<const char*>(v.data());
-    out.insert(out.end(), bytes, bytes + count * sizeof(v[0]));
-  }
+}  // namespace
+
+namespace {
+// A local world's pieces, each a value or an array's count and then its elements (write_local_world).
+template <class T>
+void put_piece(const PutBytes& put, const T& value) {
+  put(&value, sizeof value);
 }
 template <class V>
-void take_vector(const char*& at, const char* end, V& v) {
-  const auto count = take_value<std::uint64_t>(at, end);
-  if (static_cast<std::uint64_t>(end - at) / sizeof(v[0]) < count) throw std::logic_error("local world message ends early");
-  v.resize(count);
-  if (count) std::memcpy(static_cast<void*>(v.data()), at, count * sizeof(v[0]));
-  at += count * sizeof(v[0]);
+void put_array(const PutBytes& put, const V& v) {
+  const std::uint64_t count = v.size();
+  put_piece(put, count);
+  put(v.data(), count * sizeof(v[0]));
+}
+template <class T>
+T take_piece(const TakeBytes& take) {
+  T value{};
+  take(&value, sizeof value);
+  return value;
+}
+template <class V>
+void take_array(const TakeBytes& take, V& v) {
+  v.resize(take_piece<std::uint64_t>(take));
+  take(v.data(), v.size() * sizeof(v[0]));
 }
 }  // namespace
 
-std::vector<char> pack_local_world(const WorldState& local, const LocalLayout& layout) {
-  std::vector<char> out;
-  put_vector(out, layout.global_of);
-  put_value(out, layout.owned_begin);
-  put_value(out, layout.owned_count);
-  put_value(out, layout.bond_begin);
+void write_local_world(const WorldState& local, const LocalLayout& layout, const PutBytes& put) {
+  put_array(put, layout.global_of);
+  put_piece(put, layout.owned_begin);
+  put_piece(put, layout.owned_count);
+  put_piece(put, layout.bond_begin);
   for (const auto* links : {&layout.sends, &layout.receives}) {
-    put_value(out, std::uint64_t{links->size()});
+    put_piece(put, std::uint64_t{links->size()});
     for (const HaloLink& link : *links) {
-      put_value(out, link.rank);
-      put_vector(out, link.local);
+      put_piece(put, link.rank);
+      put_array(put, link.local);
     }
   }
   // The nested lists' counts first (the receiver sizes them, then for_each_array visits each).
   for (const std::size_t lists : {local.boundary.particles.size(), local.loads.particles.size(),
                                   local.loads.patch_offsets.size(), local.loads.patches.size()})
-    put_value(out, std::uint64_t{lists});
+    put_piece(put, std::uint64_t{lists});
   for_each_array(local, [&](ArrayKind kind, const char* name, const auto& array) {
-    if (travels(kind, name)) put_vector(out, array);
+    if (travels(kind, name)) put_array(put, array);
+  });
+}
+
+std::unique_ptr<WorldState> read_local_world(const WorldState& shell, LocalLayout& layout, const TakeBytes& take) {
+  take_array(take, layout.global_of);
+  layout.owned_begin = take_piece<decltype(layout.owned_begin)>(take);
+  layout.owned_count = take_piece<decltype(layout.owned_count)>(take);
+  layout.bond_begin = take_piece<decltype(layout.bond_begin)>(take);
+  for (auto* links : {&layout.sends, &layout.receives}) {
+    links->assign(take_piece<std::uint64_t>(take), HaloLink{});
+    for (HaloLink& link : *links) {
+      link.rank = take_piece<int>(take);
+      take_array(take, link.local);
+    }
+  }
+  auto w = std::make_unique<WorldState>();
+  set_local_frame(shell, layout, *w);
+  for (auto* lists : {&w->boundary.particles, &w->loads.particles, &w->loads.patch_offsets, &w->loads.patches})
+    lists->resize(take_piece<std::uint64_t>(take));
+  for_each_array(*w, [&](ArrayKind kind, const char* name, auto& array) {
+    if (travels(kind, name)) take_array(take, array);
+  });
+  finish_local_world(shell, layout, *w);
+  return w;
+}
+
+std::vector<char> pack_local_world(const WorldState& local, const LocalLayout& layout) {
+  std::vector<char> out;
+  write_local_world(local, layout, [&out](const void* data, std::size_t bytes) {
+    const char* c = static_cast<const char*>(data);
+    out.insert(out.end(), c, c + bytes);
   });
   return out;
+}
+
+std::unique_ptr<WorldState> local_world_from(const WorldState& shell, LocalLayout& layout, const std::vector<char>& message) {
+  std::size_t at = 0;
+  auto w = read_local_world(shell, layout, [&](void* data, std::size_t bytes) {
+    if (message.size() - at < bytes) throw std::logic_error("local world message ends early");
+    if (bytes) std::memcpy(data, message.data() + at, bytes);
+    at += bytes;
+  });
+  if (at != message.size()) throw std::logic_error("local world message: bytes left over");
+  return w;
 }
 
 std::vector<char> pack_world_frame(const WorldState& whole) {
@@ -377,32 +426,6 @@ void take_world_frame(WorldState& shell, const std::vector<char>& message) {
     b.horizon = take_value<double>(at, end);
   }
   if (at != end) throw std::logic_error("world frame: bytes left over");
-}
-
-std::unique_ptr<WorldState> local_world_from(const WorldState& shell, LocalLayout& layout, const std::vector<char>& message) {
-  const char* at = message.data();
-  const char* const end = at + message.size();
-  take_vector(at, end, layout.global_of);
-  layout.owned_begin = take_value<decltype(layout.owned_begin)>(at, end);
-  layout.owned_count = take_value<decltype(layout.owned_count)>(at, end);
-  layout.bond_begin = take_value<decltype(layout.bond_begin)>(at, end);
-  for (auto* links : {&layout.sends, &layout.receives}) {
-    links->assign(take_value<std::uint64_t>(at, end), HaloLink{});
-    for (HaloLink& link : *links) {
-      link.rank = take_value<int>(at, end);
-      take_vector(at, end, link.local);
-    }
-  }
-  auto w = std::make_unique<WorldState>();
-  set_local_frame(shell, layout, *w);
-  for (auto* lists : {&w->boundary.particles, &w->loads.particles, &w->loads.patch_offsets, &w->loads.patches})
-    lists->resize(take_value<std::uint64_t>(at, end));
-  for_each_array(*w, [&](ArrayKind kind, const char* name, auto& array) {
-    if (travels(kind, name)) take_vector(at, end, array);
-  });
-  if (at != end) throw std::logic_error("local world message: bytes left over");
-  finish_local_world(shell, layout, *w);
-  return w;
 }
 
 std::vector<std::uint64_t> contact_cells(const WorldState& local, const LocalLayout& layout) {

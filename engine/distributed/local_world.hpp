@@ -92,6 +92,7 @@
 // holds only the mesh's per-particle held rotations, which mesh_rotations steps from the families.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <utility>
@@ -137,15 +138,25 @@ struct LocalLayout {
 // settings) come from it. `layout` must hold rank, ranks and domains; local_world_from fills in the
 // rest, so that layout and world equal what make_layout and make_local_world give from the whole
 // world. Every split sends each rank this (runtime.hpp).
+// It travels as a sequence of pieces (a value, or an array's count and then its elements):
+// write_local_world hands them to `put` in order, read_local_world asks `take` for the same sizes in
+// the same order, so the runtime sends each piece as its own message and neither side holds the whole
+// message beside the world (runtime_mpi.cpp); pack_local_world and local_world_from do the same
+// through one buffer.
+using PutBytes = std::function<void(const void* data, std::size_t bytes)>;
+using TakeBytes = std::function<void(void* data, std::size_t bytes)>;
+void write_local_world(const WorldState& local, const LocalLayout& layout, const PutBytes& put);
+std::unique_ptr<WorldState> read_local_world(const WorldState& shell, LocalLayout& layout, const TakeBytes& take);
 std::vector<char> pack_local_world(const WorldState& local, const LocalLayout& layout);
+std::unique_ptr<WorldState> local_world_from(const WorldState& shell, LocalLayout& layout,
+                                             const std::vector<char>& message);
+
 // What a shell (WorldBuild::shell) cannot know without meshing the bodies, from the whole world: its
 // clock, the instability bound (it depends on the bodies' extent), the contact reach and skin (the
 // largest particle), and every body's particle and vertex ranges, mean edge length and horizon.
 // World::split broadcasts it from rank 0 before every split.
 std::vector<char> pack_world_frame(const WorldState& whole);
 void take_world_frame(WorldState& shell, const std::vector<char>& message);
-std::unique_ptr<WorldState> local_world_from(const WorldState& shell, LocalLayout& layout,
-                                             const std::vector<char>& message);
 
 // The layout of `rank` among `domains` (ghost lists from bond_ghosts, or `ghosts` when given: its
 // result for these domains, which a caller making several ranks' layouts computes once).

@@ -95,7 +95,7 @@ double machine_bytes(double world_bytes, const RankPlacement& p) {
   if (p.ranks <= 1) return world_bytes;
   const double part = kPartPeakFactor * world_bytes / p.ranks;
   const int others = p.local_ranks - (p.holds_rank0 ? 1 : 0);
-  return (p.holds_rank0 ? world_bytes + 2.0 * part : 0.0) + others * part;
+  return (p.holds_rank0 ? world_bytes + part : 0.0) + others * part;
 }
 
 MemoryEstimate preflight(const scene::Scene& scene, bool enforce, const RankPlacement& placement) {

@@ -413,24 +413,21 @@ Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>*
   }
   if (rank != 0) {
     // This rank's part, made by rank 0 from the whole world (local_world.hpp, pack_local_world).
-    std::uint64_t size = 0;
-    receive_bytes(&size, sizeof size, 0, kTagLocalWorld);
-    std::vector<char> message(size);
-    receive_bytes(message.data(), size, 0, kTagLocalWorld);
     m.layout.rank = rank;
     m.layout.ranks = ranks;
     m.layout.domains = *domains;
-    m.local = local_world_from(full, m.layout, message);
+    m.local = read_local_world(full, m.layout, [](void* data, std::size_t bytes) {
+      receive_bytes(data, bytes, 0, kTagLocalWorld);  // piece by piece, straight into the arrays
+    });
   } else {
     // Every rank's ghost lists, computed once for all the layouts; one part at a time, so rank 0
     // holds one more local world at most.
     const std::vector<std::vector<std::uint32_t>> ghosts = bond_ghosts(full, *domains);
     for (int q = 1; q < ranks; ++q) {
       LocalLayout theirs = make_layout(full, *domains, q, &ghosts);
-      std::vector<char> message = pack_local_world(*make_local_world(full, theirs, true), theirs);
-      const std::uint64_t size = message.size();
-      send_bytes(&size, sizeof size, q, kTagLocalWorld);
-      send_bytes(message.data(), size, q, kTagLocalWorld);
+      write_local_world(*make_local_world(full, theirs, true), theirs, [q](const void* data, std::size_t bytes) {
+        send_bytes(data, bytes, q, kTagLocalWorld);
+      });
     }
     m.layout = make_layout(full, *domains, rank, &ghosts);
     m.local = make_local_world(full, m.layout);
