@@ -83,7 +83,7 @@ class Runtime {
   // Splits `full` over the ranks of MPI_COMM_WORLD (by `domains`, the same on every rank, or by rank
   // 0's split_by_work) and builds this rank's local world and its step graph on `threads` threads.
   // Only rank 0's `full` needs its arrays (the whole world as built, loaded or gathered): rank 0 makes
-  // every rank's local world and sends each its own (local_world.hpp, pack_local_world); the other
+  // every rank's local world and sends each its own (local_world.hpp, write_local_world); the other
   // ranks take the rest from their `full`'s non-array parts (a shell, setup/world_setup.hpp, or a
   // world whose arrays were released), which must equal rank 0's. Collective. Throws
   // std::invalid_argument for a world the runtime cannot split (an embedded mesh whose vertex motion

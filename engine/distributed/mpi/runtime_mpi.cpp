@@ -412,7 +412,7 @@ Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>*
     domains = &planned;
   }
   if (rank != 0) {
-    // This rank's part, made by rank 0 from the whole world (local_world.hpp, pack_local_world).
+    // This rank's part, made by rank 0 from the whole world (local_world.hpp, write_local_world).
     m.layout.rank = rank;
     m.layout.ranks = ranks;
     m.layout.domains = *domains;
