@@ -11,7 +11,8 @@
 # (which reads the surface frames computed from ghosts), so the comparison covers all four. A run of 3 ranks
 # re-splits its work every 20 steps (rebalance_drift 0). Then a run of 2 ranks stopped at frame 7 is
 # resumed from its checkpoint by 3 ranks, and by one process: the same bytes. Last, the same comparison
-# for the FEM solver (mpi_fem.json) at 2 and 3 ranks and 2 ranks x 2 threads. --bind-to none: Open MPI
+# for the FEM solver (mpi_fem.json) at 2 and 3 ranks and 2 ranks x 2 threads, and the memory
+# preflight of 4 ranks sharing this machine (a scene that fits one process is refused). --bind-to none: Open MPI
 # otherwise pins each rank to one core, and oneTBB would then run 2 threads on it as 1.
 #   usage: mpi_identity.sh PERIFX MPIRUN WORKDIR
 set -euo pipefail
@@ -181,5 +182,33 @@ for spec in 2x1 3x1 2x2; do
   "$mpirun" --allow-run-as-root --oversubscribe --bind-to none -np "$ranks" "$perifx" run "$fem_scene" --threads "$threads" --quiet --out "$out"
   compare "FEM, $ranks ranks x $threads threads" "$out" "$work/fem_one_process"
 done
+# The memory preflight counts the ranks sharing a machine (engine/setup/preflight.hpp): a glass cube
+# whose one-process estimate is about 60 % of this machine's available memory is refused (exit 8) when
+# 4 ranks share the machine, with an estimate of 3 times the one-process one (rank 0's whole world and
+# its part, 3 parts of 2 W/4); it is refused at the primitives' cell count, before anything is meshed.
+available=$(awk '/^MemAvailable:/ {print $2 * 1024}' /proc/meminfo)
+resolution=$(python3 -c "print(max(10, round((0.6 * $available / (1.25 * 6 * 1375.0)) ** (1 / 3))))")
+cat > "$work/memory_cube.json" <<EOF
+{"name": "memory_cube", "time": {"dt": 1e-6, "duration": 1e-5, "frame_rate": 1e5},
+ "materials": {"glass": {"density": 2500, "youngs_modulus": 6e10, "poisson_ratio": 0.22, "critical_stretch": 0.001}},
+ "bodies": [{"name": "cube", "material": "glass", "geometry": {"type": "box", "size": [1, 1, 1], "resolution": $resolution}}],
+ "contact": {"enabled": true}, "output": {"directory": "$work/memory_cube"}}
+EOF
+set +e
+refusal=$("$mpirun" --allow-run-as-root --oversubscribe --bind-to none -np 4 "$perifx" run "$work/memory_cube.json" --frames 1 2>&1)
+code=$?
+set -e
+python3 - "$code" "$refusal" <<'EOF' || fail=1
+import re, sys
+code, text = int(sys.argv[1]), sys.argv[2]
+units = {"B": 1, "KiB": 2**10, "MiB": 2**20, "GiB": 2**30, "TiB": 2**40}
+m = re.search(r"estimated peak of ([0-9.]+) (\w+) on this machine, for 4 of the job's 4 ranks \(one process: ([0-9.]+) (\w+)\)", text)
+if code != 8 or not m:
+    sys.exit(f"mpi_identity: 4 ranks on one machine: expected exit 8 and the machine's estimate, got exit {code}: {text[:400]}")
+machine, one = float(m.group(1)) * units[m.group(2)], float(m.group(3)) * units[m.group(4)]
+print(f"mpi_identity: memory preflight, 4 ranks on one machine: refused (exit 8), {machine / 2**30:.3g} GiB for the machine against {one / 2**30:.3g} GiB in one process")
+if abs(machine / one - 3.0) > 0.03:  # both printed to 3 digits
+    sys.exit(f"mpi_identity: expected the machine's estimate to be 3 times the one-process one, got {machine / one:.4g}")
+EOF
 if ((fail)); then exit 1; fi
 echo "mpi_identity: every output file is byte-identical to one process"
