@@ -468,6 +468,9 @@ void World::save_checkpoint(const std::filesystem::path& file, const std::string
 }
 
 std::string World::load_checkpoint(const std::filesystem::path& file) {
+  // Before the header's counts are compared: a shell's are not known until it is distributed.
+  if (impl_->shell && !impl_->runtime)
+    throw std::logic_error("World::load_checkpoint: a shell loads a checkpoint only once distributed");
   const io::CheckpointHeader h = io::read_checkpoint_header(file);
   const std::string why = io::checkpoint_mismatch(h, impl_->scene.text, dt(), solver_text(impl_->scene.solver),
                                                   particle_count(), bond_count());
@@ -476,7 +479,6 @@ std::string World::load_checkpoint(const std::filesystem::path& file) {
   impl_->stable_dt = 0.0;
   impl_->stable_bound.reset();
   if (!impl_->runtime) {
-    if (impl_->shell) throw std::logic_error("World::load_checkpoint: a shell loads a checkpoint only once distributed");
     io::read_checkpoint(file, state_mutable());
     return h.note;
   }

@@ -2,6 +2,7 @@
 #include "distributed/local_world.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <bit>
 #include <cmath>
 #include <cstddef>
@@ -285,22 +286,6 @@ std::unique_ptr<WorldState> make_local_world(const WorldState& full, LocalLayout
 }
 
 namespace {
-template <class T>
-void put_value(std::vector<char>& out, T value) {
-  const char* c = reinterpret_cast<const char*>(&value);
-  out.insert(out.end(), c, c + sizeof value);
-}
-template <class T>
-T take_value(const char*& at, const char* end) {
-  T value{};
-  if (end - at < static_cast<std::ptrdiff_t>(sizeof value)) throw std::logic_error("local world message ends early");
-  std::memcpy(&value, at, sizeof value);
-  at += sizeof value;
-  return value;
-}
-}  // namespace
-
-namespace {
 // A local world's pieces, each a value or an array's count and then its elements (write_local_world).
 template <class T>
 void put_piece(const PutBytes& put, const T& value) {
@@ -323,6 +308,28 @@ void take_array(const TakeBytes& take, V& v) {
   v.resize(take_piece<std::uint64_t>(take));
   take(v.data(), v.size() * sizeof(v[0]));
 }
+// The pieces through one buffer: appended to `out`, or read from `message` in order (`what` names it
+// in the errors; finish() checks that nothing is left over).
+PutBytes appending_to(std::vector<char>& out) {
+  return [&out](const void* data, std::size_t bytes) {
+    const std::size_t at = out.size();
+    out.resize(at + bytes);
+    if (bytes) std::memcpy(out.data() + at, data, bytes);
+  };
+}
+struct BufferReader {
+  const std::vector<char>& message;
+  const char* what;
+  std::size_t at = 0;
+  void operator()(void* data, std::size_t bytes) {
+    if (message.size() - at < bytes) throw std::logic_error(std::string(what) + " ends early");
+    if (bytes) std::memcpy(data, message.data() + at, bytes);
+    at += bytes;
+  }
+  void finish() const {
+    if (at != message.size()) throw std::logic_error(std::string(what) + ": bytes left over");
+  }
+};
 }  // namespace
 
 void write_local_world(const WorldState& local, const LocalLayout& layout, const PutBytes& put) {
@@ -371,61 +378,54 @@ std::unique_ptr<WorldState> read_local_world(const WorldState& shell, LocalLayou
 
 std::vector<char> pack_local_world(const WorldState& local, const LocalLayout& layout) {
   std::vector<char> out;
-  write_local_world(local, layout, [&out](const void* data, std::size_t bytes) {
-    const char* c = static_cast<const char*>(data);
-    out.insert(out.end(), c, c + bytes);
-  });
+  write_local_world(local, layout, appending_to(out));
   return out;
 }
 
 std::unique_ptr<WorldState> local_world_from(const WorldState& shell, LocalLayout& layout, const std::vector<char>& message) {
-  std::size_t at = 0;
-  auto w = read_local_world(shell, layout, [&](void* data, std::size_t bytes) {
-    if (message.size() - at < bytes) throw std::logic_error("local world message ends early");
-    if (bytes) std::memcpy(data, message.data() + at, bytes);
-    at += bytes;
-  });
-  if (at != message.size()) throw std::logic_error("local world message: bytes left over");
+  BufferReader reader{message, "local world message"};
+  auto w = read_local_world(shell, layout, std::ref(reader));
+  reader.finish();
   return w;
 }
 
 std::vector<char> pack_world_frame(const WorldState& whole) {
   std::vector<char> out;
+  const PutBytes put = appending_to(out);
   static_assert(std::is_trivially_copyable_v<Clock>);
-  put_value(out, whole.clock);
-  put_value(out, whole.settings.max_speed);
-  put_value(out, whole.contact.largest_distance);
-  put_value(out, whole.contact.pairs.skin);
-  put_value(out, std::uint64_t{whole.bodies.size()});
+  put_piece(put, whole.clock);
+  put_piece(put, whole.settings.max_speed);
+  put_piece(put, whole.contact.largest_distance);
+  put_piece(put, whole.contact.pairs.skin);
+  put_piece(put, std::uint64_t{whole.bodies.size()});
   for (const BodyInfo& b : whole.bodies) {
-    put_value(out, b.first_particle);
-    put_value(out, b.particle_count);
-    put_value(out, b.first_vertex);
-    put_value(out, b.vertex_count);
-    put_value(out, b.mean_edge_length);
-    put_value(out, b.horizon);
+    put_piece(put, b.first_particle);
+    put_piece(put, b.particle_count);
+    put_piece(put, b.first_vertex);
+    put_piece(put, b.vertex_count);
+    put_piece(put, b.mean_edge_length);
+    put_piece(put, b.horizon);
   }
   return out;
 }
 
 void take_world_frame(WorldState& shell, const std::vector<char>& message) {
-  const char* at = message.data();
-  const char* const end = at + message.size();
-  shell.clock = take_value<Clock>(at, end);
-  shell.settings.max_speed = take_value<double>(at, end);
-  shell.contact.largest_distance = take_value<double>(at, end);
-  shell.contact.pairs.skin = take_value<double>(at, end);
-  if (take_value<std::uint64_t>(at, end) != shell.bodies.size())
-    throw std::logic_error("world frame: another scene's bodies");
+  BufferReader reader{message, "world frame"};
+  const TakeBytes take = std::ref(reader);
+  shell.clock = take_piece<Clock>(take);
+  shell.settings.max_speed = take_piece<double>(take);
+  shell.contact.largest_distance = take_piece<double>(take);
+  shell.contact.pairs.skin = take_piece<double>(take);
+  if (take_piece<std::uint64_t>(take) != shell.bodies.size()) throw std::logic_error("world frame: another scene's bodies");
   for (BodyInfo& b : shell.bodies) {
-    b.first_particle = take_value<std::uint32_t>(at, end);
-    b.particle_count = take_value<std::uint32_t>(at, end);
-    b.first_vertex = take_value<std::uint32_t>(at, end);
-    b.vertex_count = take_value<std::uint32_t>(at, end);
-    b.mean_edge_length = take_value<double>(at, end);
-    b.horizon = take_value<double>(at, end);
+    b.first_particle = take_piece<std::uint32_t>(take);
+    b.particle_count = take_piece<std::uint32_t>(take);
+    b.first_vertex = take_piece<std::uint32_t>(take);
+    b.vertex_count = take_piece<std::uint32_t>(take);
+    b.mean_edge_length = take_piece<double>(take);
+    b.horizon = take_piece<double>(take);
   }
-  if (at != end) throw std::logic_error("world frame: bytes left over");
+  reader.finish();
 }
 
 std::vector<std::uint64_t> contact_cells(const WorldState& local, const LocalLayout& layout) {
