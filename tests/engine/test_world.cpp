@@ -150,34 +150,47 @@ TEST_CASE("preflight: the memory estimate covers what the world holds; a distrib
   CHECK(setup::machine_bytes(world, {64, 4, false}) == doctest::Approx(4 * setup::machine_bytes(world, {64, 1, false})));
 }
 
-TEST_CASE("stable_time_step_bound(): a lower bound on the Lanczos estimate, within a factor 3 of it") {
+TEST_CASE("stable_time_step_bound(): a lower bound on the Lanczos estimate, and a close one") {
   // The bound (engine/setup/stable_time_step.cpp) must never exceed the stable step, or `perifx run`
   // would accept a time step that blows up: checked against the eigenvalue estimate on structured and
-  // jittered meshes, every normalization, ν from 0.1 to 0.4 and an anisotropic material. And it must
-  // not be so loose that ordinary scenes (dt at 30–50 % of the limit) fall back to the estimate.
+  // jittered meshes, every normalization, ν from 0.1 to 0.45, an anisotropic material, a plate one
+  // cell thick (every particle on a surface) and a body with an initial crack. And it must be close
+  // enough that scenes run at up to about half the limit never need the estimate (the CLI skips it at
+  // ≤ 0.8 of the bound): ≥ 0.6 of the estimate here (measured 0.70–0.86; the bound it replaced was
+  // 0.43–0.52, so the old floor of a third could not see a regression to it).
   struct Case {
     const char* what;
     scene::Normalization normalization;
     double nu, jitter;
     bool anisotropic;
+    Vec3 size = Vec3(0.12, 0.06, 0.04);
+    bool crack = false;
   };
-  for (const Case c : {Case{"paper, nu 0.25", scene::Normalization::paper, 0.25, 0.0, false},
+  for (const Case& c : {Case{"paper, nu 0.25", scene::Normalization::paper, 0.25, 0.0, false},
                        Case{"paper, nu 0.1, jittered", scene::Normalization::paper, 0.1, 0.3, false},
                        Case{"discrete, nu 0.4", scene::Normalization::discrete, 0.4, 0.0, false},
                        Case{"corrected, nu 0.25, jittered", scene::Normalization::corrected, 0.25, 0.3, false},
-                       Case{"paper, anisotropic", scene::Normalization::paper, 0.25, 0.0, true}}) {
+                       Case{"corrected, nu 0.45", scene::Normalization::corrected, 0.45, 0.0, false},
+                       Case{"paper, anisotropic", scene::Normalization::paper, 0.25, 0.0, true},
+                       Case{"corrected, anisotropic, jittered", scene::Normalization::corrected, 0.3, 0.3, true},
+                       Case{"corrected, plate one cell thick", scene::Normalization::corrected, 0.25, 0.0, false,
+                            Vec3(0.12, 0.12, 0.01)},
+                       Case{"corrected, initial crack", scene::Normalization::corrected, 0.25, 0.0, false,
+                            Vec3(0.12, 0.06, 0.04), true}}) {
     CAPTURE(c.what);
     const double e = 1e7, mu = e / (2 * (1 + c.nu)), kappa = e / (3 * (1 - 2 * c.nu));
-    auto sc = test::box_scene(Vec3(0.12, 0.06, 0.04), 0.01, kappa, mu);
+    auto sc = test::box_scene(c.size, 0.01, kappa, mu);
     sc.normalization = c.normalization;
     sc.bodies[0].geometry.jitter = c.jitter;
     if (c.anisotropic) sc.materials[0].anisotropy = Vec3(1.0, 0.5, 0.5).asDiagonal();
+    if (c.crack)  // a cut through half the section at mid-length (no bond crosses it)
+      sc.cracks.push_back({{Vec3(0.0, -0.04, -0.03), Vec3(0.0, 0.0, -0.03), Vec3(0.0, 0.0, 0.03), Vec3(0.0, -0.04, 0.03)}});
     const World w(sc);
     const double bound = w.stable_time_step_bound(), estimate = w.stable_time_step();
     MESSAGE(std::string(c.what) << ": bound " << bound << " s, estimate " << estimate << " s, ratio " << bound / estimate);
     CHECK(bound > 0.0);
     CHECK(bound <= estimate);
-    CHECK(bound >= estimate / 3.0);
+    CHECK(bound >= 0.6 * estimate);
   }
 }
 
