@@ -176,6 +176,16 @@ std::size_t World::alive_bond_count() const {
   return count;
 }
 int World::threads() const { return impl_->scheduler->threads(); }
+void World::set_threads(int threads) {
+  if (impl_->runtime) throw std::logic_error("World::set_threads: a distributed world's threads are fixed at distribute()");
+  impl_->scheduler.reset();  // its graph's nodes reference the state
+  impl_->scheduler = std::make_unique<Scheduler>(threads);
+  for (auto& system : systems::step_pipeline(*impl_->state)) impl_->scheduler->add(std::move(system));
+  impl_->scheduler->build();
+  impl_->scheduler->set_profiling(impl_->profiling);
+  impl_->scene.threads = threads;
+  impl_->state->settings.threads = threads;
+}
 std::size_t World::fragment_count() const {
   field("fragment_id");
   return impl_->state->derived.fragment_count;
@@ -237,7 +247,9 @@ void World::split(const std::vector<::perifx::distributed::Domain>* domains, con
   std::vector<char> frame = lead ? distributed::pack_world_frame(w) : std::vector<char>{};
   std::array<std::uint64_t, 4> whole{w.particles.count(), w.bonds.count(),
                                      impl_->embedded_mesh || !w.embedded.tets.empty(), frame.size()};
-  distributed::broadcast_bytes(whole.data(), sizeof whole);
+  // At the first split the other ranks have waited here through rank 0's set-up: asleep, so that rank
+  // 0 can set up on their cores (setup::setup_threads).
+  distributed::broadcast_bytes_asleep(whole.data(), sizeof whole);
   frame.resize(whole[3]);
   distributed::broadcast_bytes(frame.data(), frame.size());
   if (!lead) distributed::take_world_frame(w, frame);  // the clock, bounds and bodies' measures

@@ -436,17 +436,24 @@ int cmd_run(const Args& a) {
   }
   // Meshes checked, memory estimated for the ranks on this machine (refused unless --force).
   const bool distributed = a.mpi && a.mpi->active();
-  perifx::setup::preflight(sc, !a.force, distributed ? perifx::distributed::rank_placement() : perifx::setup::RankPlacement{});
+  const auto placement = distributed ? perifx::distributed::rank_placement() : perifx::setup::RankPlacement{};
+  perifx::setup::preflight(sc, !a.force, placement);
   // Under mpirun the ranks other than 0 build a shell and receive their part from rank 0 (World::distribute),
-  // which alone builds, checks and writes the whole world; a refusal there stops the job.
-  perifx::World world(sc, distributed && a.mpi->rank() != 0 ? perifx::WorldBuild::shell : perifx::WorldBuild::whole);
+  // which alone builds, checks and writes the whole world; a refusal there stops the job. The others
+  // wait for it asleep, so it sets up and checks the time step on their cores too, then steps on its own.
+  auto setup_scene = sc;
+  if (distributed) setup_scene.threads = perifx::setup::setup_threads(sc.threads, a.mpi->rank(), placement);
+  perifx::World world(setup_scene, distributed && a.mpi->rank() != 0 ? perifx::WorldBuild::shell : perifx::WorldBuild::whole);
   const bool tty = ::isatty(STDERR_FILENO) && talk;
   if (talk)
     std::cerr << "perifx: " << world.scene().name << ": " << world.particle_count() << " particles, "
-              << world.bond_count() << " bonds, " << world.threads() << " threads\n";
+              << world.bond_count() << " bonds, " << world.threads() << " threads"
+              << (setup_scene.threads != sc.threads ? " to set up, " + std::to_string(sc.threads) + " to step" : std::string())
+              << "\n";
   std::ostringstream silent;  // --quiet / json: the time-step report is dropped (its error still goes to stderr)
   if (!world.shell() && !report_time_step(world, talk ? std::cerr : silent)) return kUnstable;
   if (distributed) {
+    if (world.threads() != sc.threads && sc.threads > 0) world.set_threads(sc.threads);
     world.distribute();
     if (talk) std::cerr << "perifx: distributed over " << world.ranks() << " MPI ranks\n";
   }

@@ -6,6 +6,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <oneapi/tbb/info.h>
+
 #include "geometry/geometry.hpp"
 #include "setup/world_setup.hpp"
 
@@ -96,6 +98,11 @@ double machine_bytes(double world_bytes, const RankPlacement& p) {
   const double part = kPartPeakFactor * world_bytes / p.ranks;
   const int others = p.local_ranks - (p.holds_rank0 ? 1 : 0);
   return (p.holds_rank0 ? world_bytes + part : 0.0) + others * part;
+}
+
+int setup_threads(int threads, int rank, const RankPlacement& p) {
+  if (rank != 0 || threads <= 0 || p.local_ranks <= 1) return threads;
+  return std::max(threads, std::min(threads * p.local_ranks, tbb::info::default_concurrency()));
 }
 
 MemoryEstimate preflight(const scene::Scene& scene, bool enforce, const RankPlacement& placement) {

@@ -120,16 +120,17 @@ double stable_time_step_bound(const WorldState& w) {
     auto lane = [&, o](std::size_t k, int l, std::uint64_t) {
       const std::size_t j = bs.neighbor[k];
       const double dx = bs.x[3 * j] - o.xx, dy = bs.x[3 * j + 1] - o.xy, dz = bs.x[3 * j + 2] - o.xz;
-      const double r = systems::reference_length(dx, dy, dz);
+      const double r = systems::reference_length(dx, dy, dz), inv_r = 1.0 / r;  // one division per bond
       double omega;
       if constexpr (kAnisotropic)
         omega = kOwn ? systems::bond_weight(w, i, Vec3(dx, dy, dz)) : systems::bond_weight(w, j, Vec3(-dx, -dy, -dz));
       else
-        omega = systems::ramped_horizon(kOwn ? bs.horizon[i] : bs.horizon[j], r, ramp) / r;
-      const double a = value[j] * omega, an = a / (r * r);  // a n nᵀ = an ξ ξᵀ
+        omega = systems::ramped_horizon(kOwn ? bs.horizon[i] : bs.horizon[j], r, ramp) * inv_r;
+      const double a = value[j] * omega, an = a * inv_r * inv_r;  // a n nᵀ = an ξ ξᵀ
       if constexpr (kOwn) {
+        const double ar = a * inv_r;
         lanes[0][l] += a;
-        lanes[1][l] += a * dx / r, lanes[2][l] += a * dy / r, lanes[3][l] += a * dz / r;
+        lanes[1][l] += ar * dx, lanes[2][l] += ar * dy, lanes[3][l] += ar * dz;
       }
       lanes[4][l] += an * dx * dx, lanes[5][l] += an * dy * dy, lanes[6][l] += an * dz * dz;
       lanes[7][l] += an * dx * dy, lanes[8][l] += an * dx * dz, lanes[9][l] += an * dy * dz;

@@ -9,6 +9,8 @@ extern "C" std::size_t __sanitizer_get_current_allocated_bytes();
 
 #include <cstring>
 
+#include <oneapi/tbb/info.h>
+
 #include "setup/preflight.hpp"
 #include "support.hpp"
 
@@ -148,6 +150,33 @@ TEST_CASE("preflight: the memory estimate covers what the world holds; a distrib
   CHECK(setup::machine_bytes(world, {4, 1, true}) > world);              // rank 0 alone
   CHECK(setup::machine_bytes(world, {64, 1, false}) < 0.05 * world);     // one other rank of 64
   CHECK(setup::machine_bytes(world, {64, 4, false}) == doctest::Approx(4 * setup::machine_bytes(world, {64, 1, false})));
+}
+
+TEST_CASE("setup_threads: rank 0 sets up with the threads of the ranks waiting on its machine, no more than it may run") {
+  const int cores = tbb::info::default_concurrency();
+  CHECK(setup::setup_threads(1, 0, {2, 2, true}) == std::max(1, std::min(2, cores)));
+  CHECK(setup::setup_threads(1, 0, {64, 1, true}) == 1);   // alone on its machine: nobody's cores to take
+  CHECK(setup::setup_threads(1, 1, {2, 2, true}) == 1);    // the others build a shell
+  CHECK(setup::setup_threads(0, 0, {2, 2, true}) == 0);    // "all hardware threads" already
+  CHECK(setup::setup_threads(cores + 1, 0, {4, 4, true}) == cores + 1);  // never fewer than its own
+}
+
+TEST_CASE("World::set_threads: a world set up on 2 threads and stepped on 1 is the world built on 1, bit for bit") {
+  // The swinging bar (anchored, gravity, a ground collider) with a breakable, jittered material.
+  auto sc = swinging_bar(1);
+  sc.materials[0].critical_stretch = 0.002;
+  sc.bodies[0].geometry.jitter = 0.3;
+  World one(sc);
+  sc.threads = 2;
+  World two(sc);
+  CHECK(two.threads() == 2);
+  two.set_threads(1);
+  CHECK(two.threads() == 1);
+  CHECK(two.scene().threads == 1);
+  one.step(60);
+  two.step(60);
+  CHECK(one.alive_bond_count() == two.alive_bond_count());
+  CHECK(same_bits(one.positions(), two.positions()));
 }
 
 TEST_CASE("stable_time_step_bound(): a lower bound on the Lanczos estimate, and a close one") {

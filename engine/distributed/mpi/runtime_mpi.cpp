@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <type_traits>
 #include <utility>
 
@@ -84,6 +85,15 @@ std::vector<HaloLink> merge_links(const std::vector<HaloLink>& a, const std::vec
   return out;
 }
 
+bool mpi_started() {
+  int started = 0;
+  MPI_Initialized(&started);
+  return started != 0;
+}
+void require_mpi() {
+  if (!mpi_started()) throw std::runtime_error("the distributed runtime needs MPI started (run under mpirun)");
+}
+
 int int_count(std::size_t count, const char* what) {
   if (count > static_cast<std::size_t>(std::numeric_limits<int>::max()))
     throw std::runtime_error(std::string("a ") + what + " message is larger than MPI's int count (" +
@@ -94,25 +104,35 @@ int int_count(std::size_t count, const char* what) {
 }  // namespace
 
 void broadcast_bytes(void* data, std::size_t bytes) {
-  int started = 0;
-  MPI_Initialized(&started);
-  if (!started) throw std::runtime_error("the distributed runtime needs MPI started (run under mpirun)");
+  require_mpi();
   char* p = static_cast<char*>(data);
   for (std::size_t at = 0; at < bytes; at += kChunk)
     check(MPI_Bcast(p + at, static_cast<int>(std::min(kChunk, bytes - at)), MPI_BYTE, 0, MPI_COMM_WORLD), "broadcast");
 }
 
+void broadcast_bytes_asleep(void* data, std::size_t bytes) {
+  require_mpi();
+  char* p = static_cast<char*>(data);
+  for (std::size_t at = 0; at < bytes; at += kChunk) {
+    MPI_Request request;
+    check(MPI_Ibcast(p + at, static_cast<int>(std::min(kChunk, bytes - at)), MPI_BYTE, 0, MPI_COMM_WORLD, &request),
+          "broadcast");
+    for (int done = 0;;) {
+      check(MPI_Test(&request, &done, MPI_STATUS_IGNORE), "broadcast test");
+      if (done) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+}
+
 int job_rank() {
-  int started = 0, rank = 0;
-  MPI_Initialized(&started);
-  if (started) MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  int rank = 0;
+  if (mpi_started()) MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   return rank;
 }
 
 setup::RankPlacement rank_placement() {
-  int started = 0;
-  MPI_Initialized(&started);
-  if (!started) return {};
+  if (!mpi_started()) return {};
   int rank = 0, ranks = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &ranks);
@@ -382,9 +402,8 @@ struct Runtime::Impl {
 Runtime::Runtime(const WorldState& full, int threads, const std::vector<Domain>* domains, const RankStats* before)
     : impl_(std::make_unique<Impl>()) {
   if (before) impl_->totals = *before;  // its counts of now are replaced in share()
-  int started = 0, rank = 0, ranks = 1;
-  MPI_Initialized(&started);
-  if (!started) throw std::runtime_error("the distributed runtime needs MPI started (run under mpirun)");
+  require_mpi();
+  int rank = 0, ranks = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &ranks);
   Impl& m = *impl_;

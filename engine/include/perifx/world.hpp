@@ -151,6 +151,11 @@ class World {
   // empty while none has. Kept across resume.
   std::optional<double> first_break_time() const;
   int threads() const;
+  // Steps (and the world's own work: the stable-step estimate, derived fields) run on `threads` threads
+  // from now on (≤ 0: all hardware threads); the state and every result are the same for any count.
+  // `perifx run` under mpirun builds rank 0's world with the threads of the ranks waiting for it on its
+  // machine, then sets its own count before distribute(). Throws std::logic_error once distributed.
+  void set_threads(int threads);
 
   // The largest stable explicit step of this world's elastic model (the largest eigenfrequency of
   // the linearized force at the reference configuration; velocity Verlet limit 2/ω_max).
