@@ -152,9 +152,19 @@ double stable_time_step_bound(const WorldState& w) {
   // Per particle: the own-row part of H_p (6 numbers, as RowSums::t), R_j, and λ_max(H_p)/m_p.
   std::vector<std::array<double, 6>> own(n);
   std::vector<double> reach(n, 0.0), bound(n, 0.0);
-  auto passes = [&](auto anisotropic) {
+  // Each row in its body's form (dispatch_row, as the bond kernels): an isotropic body's rows take the
+  // SIMD isotropic weights in an anisotropic world too; a bond joins two rows of the same form.
+  auto passes = [&](auto anisotropic_world) {
+    constexpr bool kAnisotropicWorld = decltype(anisotropic_world)::value;
+    auto sums = [&](std::size_t i, const double* value, auto own_row) {
+      RowSums r;
+      systems::dispatch_row<kAnisotropicWorld, false>(md.anisotropic_family, i, [&](auto form) {
+        r = row_sums(i, value, own_row, std::bool_constant<decltype(form)::value>{});
+      });
+      return r;
+    };
     parallel_for_each(n, [&](std::size_t i) {
-      const RowSums r = row_sums(i, vol.data(), std::true_type{}, anisotropic);
+      const RowSums r = sums(i, vol.data(), std::true_type{});
       const double c = md.dilatation_scale[i], bb = 0.25 * md.b4[i];
       const double kk = c > 0.0 ? std::max((0.25 * md.a4[i] - bb * md.beta[i]) / c, 0.0) * c * c : 0.0;  // k⁺ c²
       const Vec3 g(r.g[0], r.g[1], r.g[2]);
@@ -165,7 +175,7 @@ double stable_time_step_bound(const WorldState& w) {
       reach[i] = 4.0 * vol[i] * bb + 2.0 * vol[i] * kk * (1.0 + t) * r.s;
     }, 256);
     parallel_for_each(n, [&](std::size_t p) {
-      const Mat3 h = sym(own[p]) + vol[p] * sym(row_sums(p, reach.data(), std::false_type{}, anisotropic).t);
+      const Mat3 h = sym(own[p]) + vol[p] * sym(sums(p, reach.data(), std::false_type{}).t);
       // Closed-form eigenvalues of a symmetric 3 × 3 (deterministic); the 1e-9 covers their rounding.
       const double lambda = Eigen::SelfAdjointEigenSolver<Mat3>().computeDirect(h, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
       bound[p] = (1.0 + 1e-9) * std::max(lambda, 0.0) / w.particles.mass[p];
