@@ -43,6 +43,12 @@ struct World::Impl {
   std::size_t particles = 0, bonds = 0;  // the whole world's counts (other ranks free its arrays)
   bool shell = false;                    // WorldBuild::shell: no arrays; distribute() fills the above
 
+  // The step's task graph on the scheduler's threads, from the state as built (the constructor; set_threads).
+  void build_step_graph() {
+    for (auto& system : systems::step_pipeline(*state)) scheduler->add(std::move(system));
+    scheduler->build();
+  }
+
   ~Impl() { scheduler.reset(); }  // the graph's nodes reference the state; tear them down first
 };
 
@@ -53,8 +59,7 @@ World::World(const scene::Scene& scene, WorldBuild build) : impl_(std::make_uniq
   impl_->scheduler = std::make_unique<Scheduler>(scene.threads);
   impl_->shell = build == WorldBuild::shell;
   impl_->state = setup::build_world_state(scene, *impl_->scheduler, &impl_->setup_times, impl_->shell);
-  for (auto& system : systems::step_pipeline(*impl_->state)) impl_->scheduler->add(std::move(system));
-  impl_->scheduler->build();
+  impl_->build_step_graph();
 }
 
 World::World(World&&) noexcept = default;
@@ -180,8 +185,7 @@ void World::set_threads(int threads) {
   if (impl_->runtime) throw std::logic_error("World::set_threads: a distributed world's threads are fixed at distribute()");
   impl_->scheduler.reset();  // its graph's nodes reference the state
   impl_->scheduler = std::make_unique<Scheduler>(threads);
-  for (auto& system : systems::step_pipeline(*impl_->state)) impl_->scheduler->add(std::move(system));
-  impl_->scheduler->build();
+  impl_->build_step_graph();
   impl_->scheduler->set_profiling(impl_->profiling);
   impl_->scene.threads = threads;
   impl_->state->settings.threads = threads;

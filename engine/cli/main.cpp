@@ -453,7 +453,7 @@ int cmd_run(const Args& a) {
   std::ostringstream silent;  // --quiet / json: the time-step report is dropped (its error still goes to stderr)
   if (!world.shell() && !report_time_step(world, talk ? std::cerr : silent)) return kUnstable;
   if (distributed) {
-    if (world.threads() != sc.threads && sc.threads > 0) world.set_threads(sc.threads);
+    if (setup_scene.threads != sc.threads) world.set_threads(sc.threads);
     world.distribute();
     if (talk) std::cerr << "perifx: distributed over " << world.ranks() << " MPI ranks\n";
   }
