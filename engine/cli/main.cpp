@@ -635,6 +635,7 @@ int cli_main(int argc, char** argv, const perifx::distributed::MpiSession& mpi);
 // behind would hang the others in their next exchange, so a distributed error stops the whole job
 // (MPI_Abort) with the command's exit code.
 int main(int argc, char** argv) {
+  perifx::setup::release_freed_memory_promptly();  // the peak the preflight estimates (preflight.hpp)
   try {
     perifx::distributed::MpiSession mpi(argc, argv);
     if (!mpi.active() && perifx::distributed::launcher_ranks() > 1) {

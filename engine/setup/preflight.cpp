@@ -6,6 +6,10 @@
 #include <fstream>
 #include <sstream>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include <oneapi/tbb/info.h>
 
 #include "geometry/geometry.hpp"
@@ -91,6 +95,12 @@ std::string format_bytes(double b) {
   char buf[48];
   std::snprintf(buf, sizeof buf, "%.3g %s", b, units[u]);
   return buf;
+}
+
+void release_freed_memory_promptly() {
+#if defined(__GLIBC__)
+  mallopt(M_MMAP_THRESHOLD, 1 << 20);  // also stops the dynamic trim threshold
+#endif
 }
 
 double machine_bytes(double world_bytes, const RankPlacement& p) {

@@ -17,8 +17,9 @@ namespace perifx::setup {
 // (bytes_per_bond); 377–518 B per particle (the most with a collider's surface frames: fig16 full),
 // 240–251 B more in the contact grid and pair list when contact is on; the tet mesh and the embedded
 // mesh 393 B per tet (fig01 preview, fig16 full). Setup holds transient arrays on top (adjacency, Morton
-// keys, the family lists), hence the peak factor: the full bunny's peak RSS in one process is 1.20 GiB
-// against 1003 MiB of arrays (test `preflight: …` holds the estimate above what the world holds).
+// keys, the family lists), hence the peak factor: the full bunny's peak RSS in one process is 1.09 GiB
+// (1.167 GB on 1 and on 2 threads, with release_freed_memory_promptly below) against 1003 MiB of arrays
+// and an estimate of 1.15 GiB (test `preflight: …` holds the estimate above what the world holds).
 inline constexpr double kBytesPerBondState = 5.0;
 inline constexpr double kBytesPerBondPlastic = 8.0;
 inline constexpr double kBytesPerBondScale = 4.0;
@@ -31,9 +32,9 @@ inline constexpr double kPeakFactor = 1.25;
 // A distributed run's ranks on this machine (perifx run under mpirun): rank 0 builds the whole world,
 // keeps it for output and makes every other rank's part; the other ranks hold their part only
 // (World::split). Measured on the full bunny (bench/README.md, "Set-up on rank 0 only"; single-process
-// peak W = 1.20 GiB): a rank other than 0 peaked at 1.17 × W/N at 2 ranks and 1.47–1.99 × W/N at 4 (the
-// ghosts' share grows with N), rank 0 at W + 0.82 × W/N at 2 ranks. So a part is taken as
-// kPartPeakFactor × W/N, and rank 0 as W plus one part.
+// peak W = 1.09 GiB, 1 thread per rank, 2026-12-06): a rank other than 0 peaked at 1.09 × W/N at 2 ranks
+// and 1.43–1.96 × W/N at 4 (the ghosts' share grows with N), rank 0 at W + 0.89 × W/N at 2 ranks and
+// W + 0.81 × W/N at 4. So a part is taken as kPartPeakFactor × W/N, and rank 0 as W plus one part.
 struct RankPlacement {
   int ranks = 1;             // in the job
   int local_ranks = 1;       // on this machine, sharing its memory
@@ -71,6 +72,15 @@ class MemoryError : public Error {
 MemoryEstimate preflight(const scene::Scene& scene, bool enforce, const RankPlacement& placement = {});
 
 std::string format_bytes(double bytes);  // "1.2 GiB"
+
+// Makes the C library return every freed block of 1 MiB or more to the system at once (glibc: a fixed
+// M_MMAP_THRESHOLD; a no-op elsewhere). By default glibc raises that threshold up to 32 MiB after the
+// first large free, and then set-up's freed mid-size arrays (the family lists, sort buffers, the
+// stable-step estimate's vectors) stay in the arena of the thread that freed them: the full bunny
+// (fig16 full, 5.6e5 particles) peaked at 1.27 GB on 1 thread and 1.39 GB on 2, and 1.17 GB on both
+// with the threshold fixed, which is what the estimates above assume. Process-wide, so the library
+// does not call it: `perifx` does at start; an embedder may.
+void release_freed_memory_promptly();
 // Bytes per directed bond and per particle the world will hold for this scene (see the figures above).
 double bytes_per_bond(const scene::Scene& scene);
 double bytes_per_particle(const scene::Scene& scene);
