@@ -118,6 +118,12 @@ inline double bond_weight(const WorldState& w, std::size_t i, const Vec3& xi) {
   return ramped_horizon(w.model.horizon[i], r, influence_ramp(w)) / l;
 }
 
+// k_i = (a_i − b_i β_i)/c_i (Pa), the bulk coefficient of particle i's energy V_i k_i θ_i²: the elastic
+// energy (elastic_force.cpp) and the stable-step bound that bounds it. Only where c_i > 0.
+inline double bulk_energy_coefficient(const ParticleModel& md, std::size_t i) {
+  return (0.25 * md.a4[i] - 0.25 * md.b4[i] * md.beta[i]) / md.dilatation_scale[i];
+}
+
 // The mirror j→i of particle i's bond k (binary search in j's sorted row). Setup code and tests only.
 inline std::uint32_t mirror_bond(const Bonds& b, std::size_t i, std::size_t k) {
   const std::uint32_t j = b.neighbor[k];

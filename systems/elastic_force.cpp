@@ -119,8 +119,7 @@ double elastic_energy(const WorldState& w) {
   const auto& md = w.model;
   return deterministic_sum(p.count(), 0.0, [&](std::size_t i) {
     if (md.dilatation_scale[i] == 0.0) return 0.0;
-    const double a = 0.25 * md.a4[i], bb = 0.25 * md.b4[i];
-    const double k = (a - bb * md.beta[i]) / md.dilatation_scale[i];
+    const double bb = 0.25 * md.b4[i], k = bulk_energy_coefficient(md, i);
     double bond_sum = 0.0;
     for (std::uint32_t q = b.offsets[i]; q < b.offsets[i + 1]; ++q) {
       if (!b.alive[q]) continue;

@@ -166,7 +166,7 @@ double stable_time_step_bound(const WorldState& w) {
     parallel_for_each(n, [&](std::size_t i) {
       const RowSums r = sums(i, vol.data(), std::true_type{});
       const double c = md.dilatation_scale[i], bb = 0.25 * md.b4[i];
-      const double kk = c > 0.0 ? std::max((0.25 * md.a4[i] - bb * md.beta[i]) / c, 0.0) * c * c : 0.0;  // k⁺ c²
+      const double kk = c > 0.0 ? std::max(systems::bulk_energy_coefficient(md, i), 0.0) * c * c : 0.0;  // k⁺ c²
       const Vec3 g(r.g[0], r.g[1], r.g[2]);
       const double t = r.s > 0.0 ? g.norm() / r.s : 0.0;
       const double dil = t > 0.0 ? 2.0 * vol[i] * kk * (1.0 + 1.0 / t) : 0.0;
