@@ -27,6 +27,7 @@
 // Reads:  position, bond_alive, damage (broken_bonds), mesh.   Writes: mesh (held_deformation, held_tracked).
 #include <algorithm>
 
+#include "bond_gather.hpp"
 #include "bond_rules.hpp"
 #include "parallel.hpp"
 #include "systems.hpp"
@@ -51,24 +52,82 @@ bool fitted_deformation(const Mat3& K, const Mat3& N, std::uint32_t alive, Mat3&
   return true;
 }
 
-std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N) {
-  const Bonds& b = w.bonds;
-  const auto& x = w.particles.reference_position;
-  const auto& y = w.particles.position;
-  const auto& vol = w.particles.volume;
-  K.setZero();
-  N.setZero();
-  std::uint32_t n = 0;
-  for (std::uint32_t k = b.offsets[p], end = b.offsets[p + 1]; k < end; ++k) {
-    if (alive_only && !b.alive[k]) continue;
-    const std::uint32_t j = b.neighbor[k];
-    const Vec3 xi = x[j] - x[p];
-    const Vec3 wxi = (bond_weight(w, p, xi) * vol[j]) * xi;
-    K += wxi * xi.transpose();
-    N += (y[j] - y[p]) * wxi.transpose();
-    ++n;
-  }
-  return n;
+namespace {
+
+// The family sums of particle p, lane-strided (bond_rules.hpp: for_each_bond_lane) so that they run as
+// SIMD; as a scalar Eigen loop they were 8 % of the glass walls preview's CPU (fig01, 2 threads, perf):
+//   K  = Σ ω V_j ξ⊗ξ,  N = Σ ω V_j η⊗ξ (η = y_j − y_p; kN),  Ṅ = Σ ω V_j (v_j − v_p)⊗ξ (kRate),
+// ω = δ̃_p/ℓ with the influence ramp (bond_rules.hpp: bond_weight's weight), over p's alive bonds or all.
+// A bond left out is multiplied by 0.0, not selected away: a select around the gathers kept GCC 12 from
+// vectorizing the loop. Its terms are finite (V_j/ℓ > 0, positions finite), so the sums have the same
+// bits as if it were skipped. Per-lane sums added in lane order: the same bits for any thread count.
+template <bool kAnisotropic, bool kN, bool kRate>
+std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3* N, Mat3* Nd) {
+  const auto bs = bond_streams(w, w.particles.position);
+  const double* const volume = w.particles.volume.data();
+  const double* const v = w.particles.velocity.data()->data();
+  const auto o = bs.origin(p);
+  const double vx = kRate ? v[3 * p] : 0.0, vy = kRate ? v[3 * p + 1] : 0.0, vz = kRate ? v[3 * p + 2] : 0.0;
+  const AnisotropyMetric& g_p = bs.template anisotropy<kAnisotropic>(p);
+  const double delta = w.model.horizon[p];
+  const InfluenceRamp ramp = influence_ramp(w);
+  const std::uint64_t keep_dead = alive_only ? 0 : 1;
+  // K symmetric (6), N and Ṅ (9 each), row-major: n[3a + b] = Σ ω V η_a ξ_b.
+  double k6[6][kBondLanes] = {}, n9[9][kBondLanes] = {}, r9[9][kBondLanes] = {}, count[kBondLanes] = {};
+  // The chunk's far ends in lane order (bond_gather.hpp: positions by load + transpose).
+  ChunkPositions cp;
+  alignas(64) double vol[kBondLanes], cv[3][kBondLanes];
+  auto gather = [&](std::size_t k, int n) {
+    gather_positions(bs.y, bs.x, bs.neighbor + k, n, cp);
+    for (int l = 0; l < n; ++l) vol[l] = volume[bs.neighbor[k + static_cast<std::size_t>(l)]];
+    if constexpr (kRate)
+      for (int l = 0; l < n; ++l) {
+        const std::size_t j = 3 * std::size_t(bs.neighbor[k + static_cast<std::size_t>(l)]);
+        cv[0][l] = v[j], cv[1][l] = v[j + 1], cv[2][l] = v[j + 2];
+      }
+  };
+  auto lane = [=, &k6, &n9, &r9, &count, &g_p, &cp, &vol, &cv](std::size_t, int l, std::uint64_t is_alive) {
+    const double dx[3] = {cp.xx[l] - o.xx, cp.xy[l] - o.xy, cp.xz[l] - o.xz};
+    const double r = reference_length(dx[0], dx[1], dx[2]);
+    const double use = static_cast<double>((is_alive | keep_dead) != 0);
+    const double weight =
+        vol[l] * ramped_horizon(delta, r, ramp) / weighted_length<kAnisotropic>(g_p, r, dx[0], dx[1], dx[2]) * use;
+    const double wx[3] = {weight * dx[0], weight * dx[1], weight * dx[2]};
+    k6[0][l] += wx[0] * dx[0], k6[1][l] += wx[1] * dx[1], k6[2][l] += wx[2] * dx[2];
+    k6[3][l] += wx[0] * dx[1], k6[4][l] += wx[0] * dx[2], k6[5][l] += wx[1] * dx[2];
+    if constexpr (kN) {
+      const double dy[3] = {cp.yx[l] - o.yx, cp.yy[l] - o.yy, cp.yz[l] - o.yz};
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) n9[3 * a + b][l] += dy[a] * wx[b];
+    }
+    if constexpr (kRate) {
+      const double dv[3] = {cv[0][l] - vx, cv[1][l] - vy, cv[2][l] - vz};
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) r9[3 * a + b][l] += dv[a] * wx[b];
+    }
+    count[l] += use;
+  };
+  for_each_gathered_bond_lane(bs.offsets[p], bs.offsets[p + 1], bs.alive, gather, lane, [](std::size_t, int) {});
+  const double kxx = sum_lanes(k6[0]), kyy = sum_lanes(k6[1]), kzz = sum_lanes(k6[2]), kxy = sum_lanes(k6[3]),
+               kxz = sum_lanes(k6[4]), kyz = sum_lanes(k6[5]);
+  K << kxx, kxy, kxz, kxy, kyy, kyz, kxz, kyz, kzz;
+  if constexpr (kN)
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) (*N)(a, b) = sum_lanes(n9[3 * a + b]);
+  if constexpr (kRate)
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) (*Nd)(a, b) = sum_lanes(r9[3 * a + b]);
+  return static_cast<std::uint32_t>(sum_lanes(count));  // exact: integers far below 2^53
+}
+
+}  // namespace
+
+std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N, Mat3* rate) {
+  if (rate)
+    return w.any_anisotropic ? family_tensors<true, true, true>(w, p, alive_only, K, &N, rate)
+                             : family_tensors<false, true, true>(w, p, alive_only, K, &N, rate);
+  return w.any_anisotropic ? family_tensors<true, true, false>(w, p, alive_only, K, &N, nullptr)
+                           : family_tensors<false, true, false>(w, p, alive_only, K, &N, nullptr);
 }
 
 namespace {
@@ -100,43 +159,6 @@ void step_particle(WorldState& w, std::size_t p) {
   e.held_tracked[p] = 1;
 }
 
-// K = Σ ω V ξξᵀ over p's alive bonds and their count, for set-up's fit test: lane-strided
-// (bond_rules.hpp) so that it runs as SIMD; as a scalar Eigen loop it was 9 % of a 9e5-particle set-up's
-// CPU. The summation order differs from family_sums, so K can differ in its last bits; it only decides
-// whether a family fits (a condition number against 1e4), never a position.
-template <bool kAnisotropic>
-std::uint32_t alive_shape_tensor(const WorldState& w, std::size_t p, Mat3& K) {
-  const auto bs = bond_streams(w, w.particles.reference_position);
-  const double* const volume = w.particles.volume.data();
-  const auto o = bs.origin(p);
-  const AnisotropyMetric& g_p = bs.template anisotropy<kAnisotropic>(p);
-  double xx[kBondLanes] = {}, yy[kBondLanes] = {}, zz[kBondLanes] = {}, xy[kBondLanes] = {}, xz[kBondLanes] = {},
-         yz[kBondLanes] = {};
-  double count[kBondLanes] = {};  // exact: integers far below 2^53
-  // ω = δ̃_p/ℓ with the influence ramp (bond_rules.hpp), the weight family_sums uses through bond_weight,
-  // so the test judges the K the fit will use.
-  const double delta = w.model.horizon[p];
-  const InfluenceRamp ramp = influence_ramp(w);
-  // A dead bond's weight is multiplied by 0.0, not selected away: a select around the gather of V_j
-  // kept GCC 12 from vectorizing the loop (it ran scalar, 7 % of a 9e5-particle set-up's CPU). V_j/ℓ is
-  // finite and positive, so the product is +0.0 and K has the same bits.
-  auto lane = [=, &xx, &yy, &zz, &xy, &xz, &yz, &count, &g_p](std::size_t k, int l, std::uint64_t is_alive) {
-    const std::size_t j = bs.neighbor[k];
-    const double dxx = bs.x[3 * j] - o.xx, dxy = bs.x[3 * j + 1] - o.xy, dxz = bs.x[3 * j + 2] - o.xz;
-    const double r = reference_length(dxx, dxy, dxz);
-    const double alive = static_cast<double>(is_alive != 0);
-    const double weight =
-        volume[j] * ramped_horizon(delta, r, ramp) / weighted_length<kAnisotropic>(g_p, r, dxx, dxy, dxz) * alive;
-    xx[l] += weight * dxx * dxx, yy[l] += weight * dxy * dxy, zz[l] += weight * dxz * dxz;
-    xy[l] += weight * dxx * dxy, xz[l] += weight * dxx * dxz, yz[l] += weight * dxy * dxz;
-    count[l] += alive;
-  };
-  for_each_bond_lane(bs.offsets[p], bs.offsets[p + 1], bs.alive, lane, [](std::size_t, int) {});
-  K << sum_lanes(xx), sum_lanes(xy), sum_lanes(xz), sum_lanes(xy), sum_lanes(yy), sum_lanes(yz), sum_lanes(xz),
-      sum_lanes(yz), sum_lanes(zz);
-  return static_cast<std::uint32_t>(sum_lanes(count));
-}
-
 }  // namespace
 
 void init_held_rotations(WorldState& w) {
@@ -152,8 +174,8 @@ void init_held_rotations(WorldState& w) {
   dispatch_flags([&](auto aniso) {
     constexpr bool kAnisotropic = decltype(aniso)::value;
     parallel_for_each(np, [&](std::size_t p) {
-      Mat3 K;
-      const std::uint32_t alive = alive_shape_tensor<kAnisotropic>(w, p, K);
+      Mat3 K;  // K alone (as a scalar loop it was 9 % of a 9e5-particle set-up's CPU)
+      const std::uint32_t alive = family_tensors<kAnisotropic, false, false>(w, p, true, K, nullptr, nullptr);
       const std::uint32_t listed = w.bonds.offsets[p + 1] - w.bonds.offsets[p];
       if (alive < listed || !family_fits(K, alive)) e.held_tracked[p] = 1;
     }, 256);

@@ -58,23 +58,8 @@ constexpr double kFallbackWeight = 1e-3;
 // reads the held rotation that the mesh_rotations system keeps current every step.
 void particle_deformation(WorldState& w, std::size_t p) {
   EmbeddedMesh& e = w.embedded;
-  const Bonds& b = w.bonds;
-  const auto& x = w.particles.reference_position;
-  const auto& y = w.particles.position;
-  const auto& vel = w.particles.velocity;
-  const auto& vol = w.particles.volume;
-  Mat3 K = Mat3::Zero(), N = Mat3::Zero(), Nd = Mat3::Zero();
-  std::uint32_t alive = 0;
-  for (std::uint32_t k = b.offsets[p], end = b.offsets[p + 1]; k < end; ++k) {
-    if (!b.alive[k]) continue;
-    const std::uint32_t j = b.neighbor[k];
-    const Vec3 xi = x[j] - x[p];
-    const Vec3 wxi = (bond_weight(w, p, xi) * vol[j]) * xi;
-    K += wxi * xi.transpose();
-    N += (y[j] - y[p]) * wxi.transpose();
-    Nd += (vel[j] - vel[p]) * wxi.transpose();
-    ++alive;
-  }
+  Mat3 K, N, Nd;
+  const std::uint32_t alive = family_sums(w, p, true, K, N, &Nd);
   Mat3& F = e.deformation[p];
   Mat3& Fd = e.deformation_rate[p];
   e.deformation_fitted[p] = 0;

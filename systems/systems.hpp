@@ -111,9 +111,11 @@ void init_held_rotations(WorldState& world);
 void update_held_rotations(WorldState& world);
 bool family_fits(const Mat3& K, std::uint32_t alive);
 bool deformation_conditioned(const Mat3& F);
-// K = Σ ω ξ⊗ξ V_j and N = Σ ω η⊗ξ V_j over p's bonds (alive ones only, or all), in the neighbour
-// list's order; returns the number of bonds summed (F = N K⁻¹ when family_fits).
-std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N);
+// K = Σ ω ξ⊗ξ V_j and N = Σ ω η⊗ξ V_j over p's bonds (alive ones only, or all), and with `rate` also
+// Ṅ = Σ ω (v_j − v_p)⊗ξ V_j (F = N K⁻¹, Ḟ = Ṅ K⁻¹ when family_fits); returns the number of bonds
+// summed. Lane-strided SIMD sums in a fixed order (mesh_rotations.cpp).
+std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N,
+                          Mat3* rate = nullptr);
 // F = N K⁻¹ when the family fits, replaced by its rotation when badly stretched or inverted; false
 // (F untouched) when the family does not fit. The held rotations and the surface frames use it.
 bool fitted_deformation(const Mat3& K, const Mat3& N, std::uint32_t alive, Mat3& F);
