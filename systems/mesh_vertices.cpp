@@ -5,7 +5,8 @@
 //       K = Σ ω ξ⊗ξ V_j,  F_p = (Σ ω η⊗ξ V_j) K⁻¹,  Ḟ_p = (Σ ω (v_j − v_p)⊗ξ V_j) K⁻¹.
 //     F_p is used when p has ≥ 4 alive bonds, K is well conditioned (‖K‖‖K⁻¹‖ ≤ 1e4, Frobenius) and
 //     F_p is well conditioned (det > 0, ‖F‖², ‖F⁻¹‖² ≤ 12, i.e. no stretch beyond ~3.5×). A badly
-//     stretched or inverted F_p is replaced by its own rotation. With too few bonds or K
+//     stretched or inverted F_p, or one fitted to a remnant family (< 8 alive bonds, or < 1/8 of the
+//     original ones), is replaced by its own rotation. With too few bonds or K
 //     ill-conditioned, F_p ← the particle's held rotation, which is step state kept by the
 //     mesh_rotations system (mesh_rotations.cpp): every step, the rotation of N + μ R_old (R_old: the
 //     rotation of the last step, μ = 1e-3 tr K), i.e. the rotation that best maps the few alive bonds,
@@ -53,6 +54,7 @@ namespace {
 // a vertex with tets that have their own fitted F: the fitted neighbours place the vertex, so a
 // poorly bonded particle's rotation cannot pull its tet's vertices apart from theirs.
 constexpr double kFallbackWeight = 1e-3;
+constexpr std::uint32_t kRemnantBonds = 8;
 
 // F_p and Ḟ_p of one particle (see the header comment). A pure function of the state: the fallback
 // reads the held rotation that the mesh_rotations system keeps current every step.
@@ -66,7 +68,14 @@ void particle_deformation(WorldState& w, std::size_t p) {
   if (family_fits(K, alive)) {
     const Mat3 Kinv = K.inverse();
     const Mat3 Fnew = N * Kinv;
-    if (deformation_conditioned(Fnew)) {
+    // A remnant family (fewer than kRemnantBonds alive, or under 1/kRemnantBonds of those it started with)
+    // gives a fit ruled by its last few bonds: in a ductile tear they are the drawn-out ligament, and F read
+    // 2.7–3.0× along it where the particles around had stretched 1.2–1.8× (fig05 and fig01 ductile previews,
+    // families of 5 of 93 and 5 of 103 bonds; check-surface flagged their triangles). Its tet then takes the
+    // fit's rotation only, as a badly stretched fit does.
+    const auto& initial = w.bonds.initial_count;
+    const bool remnant = alive < kRemnantBonds || (p < initial.size() && std::uint64_t{kRemnantBonds} * alive < initial[p]);
+    if (!remnant && deformation_conditioned(Fnew)) {
       F = Fnew;
       Fd = Nd * Kinv;
       e.deformation_fitted[p] = 1;
