@@ -77,6 +77,8 @@ io::RunMesh run_mesh(const World& world) {
   m.tet_count = tets.size();
   m.hash = io::tet_hash(tets, mesh.vertices.size());
   if (m.vertices_are_particles) m.tets = tets;
+  m.frame_rate = world.scene().time.frame_rate;
+  m.dt = world.dt();
   const auto& out = world.scene().output;
   if (out.obj || out.surface_ply || out.surface_vtp)
     for (const auto& body : world.state().bodies) m.horizon = std::max(m.horizon, body.horizon);

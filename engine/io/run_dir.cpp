@@ -146,14 +146,20 @@ RunDirectory scan_run_directory(const fs::path& dir) {
   if (frames.empty())
     throw RunDirError("'" + dir.string() + "' has no particles.NNNN.vtu/.ply or surface.NNNN.ply/.obj frames");
 
-  // Frame times from the .pvd (file="particles.0003.vtu" timestep="..."), else 30 fps.
+  // Frame times from the .pvd (file="particles.0003.vtu" timestep="..."), else from mesh.json's frame
+  // rate and step as the runner places frames (runner.cpp), else 30 fps.
   std::map<std::string, double> pvd_time;
   if (fs::exists(dir / "particles.pvd"))
     for (const PvdEntry& e : reading([&] { return read_pvd(dir / "particles.pvd"); }))
       pvd_time[e.file.filename().string()] = e.time;
+  const RunMesh mesh = pvd_time.empty() ? read_run_mesh(dir) : RunMesh{};
+  auto placed_time = [&](std::uint64_t k) {
+    if (!(mesh.frame_rate > 0.0 && mesh.dt > 0.0)) return double(k) / 30.0;
+    return double(std::llround(double(k) * (1.0 / mesh.frame_rate) / mesh.dt)) * mesh.dt;
+  };
   for (auto& [k, f] : frames) {
     const auto it = f.particles.empty() ? pvd_time.end() : pvd_time.find(f.particles.filename().replace_extension(".vtu").string());
-    f.time = it != pvd_time.end() ? it->second : double(k) / 30.0;
+    f.time = it != pvd_time.end() ? it->second : placed_time(k);
     run.frames.push_back(f);
   }
   if (run.frames.size() >= 2) {
@@ -229,6 +235,12 @@ void write_run_mesh(const fs::path& dir, const RunMesh& m) {
     const auto r = std::to_chars(buf, buf + sizeof buf, m.horizon);
     text += ",\n  \"horizon\": " + std::string(buf, r.ptr);
   }
+  for (const auto& [key, value] : {std::pair{"frame_rate", m.frame_rate}, std::pair{"dt", m.dt}}) {
+    if (!(value > 0.0)) continue;
+    char buf[32];
+    const auto r = std::to_chars(buf, buf + sizeof buf, value);
+    text += ",\n  \"" + std::string(key) + "\": " + std::string(buf, r.ptr);
+  }
   if (m.vertices_are_particles) {  // the connectivity that maps vertices back to the PD particles
     text += ",\n  \"tets\": [";
     for (std::size_t t = 0; t < m.tets.size(); ++t) {
@@ -256,6 +268,8 @@ RunMesh read_run_mesh(const fs::path& dir) {
     m.tet_count = j.at("tet_count").get<std::size_t>();
     m.hash = j.at("tet_hash").get<std::string>();
     m.horizon = j.value("horizon", 0.0);
+    m.frame_rate = j.value("frame_rate", 0.0);
+    m.dt = j.value("dt", 0.0);
     if (j.contains("tets")) m.tets = j["tets"].get<std::vector<std::array<std::uint32_t, 4>>>();
   } catch (const nlohmann::json::exception& e) {
     throw RunDirError(file.string() + ": " + e.what());

@@ -52,7 +52,7 @@ struct FrameFiles {
   std::uint64_t index = 0;
   std::filesystem::path particles;  // .vtu preferred, else .ply; empty when only surfaces exist
   std::filesystem::path surface;    // .ply preferred, else .obj; empty when none
-  double time = 0.0;                // from particles.pvd, else index / 30
+  double time = 0.0;                // from particles.pvd, else mesh.json's frame rate and step, else index / 30
 };
 
 struct RunDirectory {
@@ -92,6 +92,9 @@ struct RunMesh {
   std::string hash;
   std::vector<std::array<std::uint32_t, 4>> tets;  // written and read only when vertices_are_particles
   double horizon = 0.0;  // largest horizon δ of the bodies, m; written when the run writes surfaces (else 0)
+  // The output frame rate (1/s) and time step (s): frame k is at step round(k / (frame_rate · dt)), so a
+  // run without particles.pvd (ply-only output) still has its frame times. 0 in older runs.
+  double frame_rate = 0.0, dt = 0.0;
 };
 // FNV-1a 64 of the vertex count, tet count and connectivity, as 16 hex digits.
 std::string tet_hash(const std::vector<std::array<std::uint32_t, 4>>& tets, std::size_t vertices);
