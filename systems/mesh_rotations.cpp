@@ -55,7 +55,8 @@ bool fitted_deformation(const Mat3& K, const Mat3& N, std::uint32_t alive, Mat3&
 namespace {
 
 // The family sums of particle p, lane-strided (bond_rules.hpp: for_each_bond_lane) so that they run as
-// SIMD; as a scalar Eigen loop they were 8 % of the glass walls preview's CPU (fig01, 2 threads, perf):
+// SIMD; as scalar Eigen loops the vertex pass took 4.1× and the held rotations 2.4–3.3× as long at 3e5
+// particles (bench/README.md, "The family sums as SIMD"):
 //   K  = Σ ω V_j ξ⊗ξ,  N = Σ ω V_j η⊗ξ (η = y_j − y_p; kN),  Ṅ = Σ ω V_j (v_j − v_p)⊗ξ (kRate),
 // ω = δ̃_p/ℓ with the influence ramp (bond_rules.hpp: bond_weight's weight), over p's alive bonds or all.
 // A bond left out is multiplied by 0.0, not selected away: a select around the gathers kept GCC 12 from
