@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 #include <regex>
+
+#include <sys/resource.h>
 #include <sstream>
 #include <stdexcept>
 
@@ -448,6 +450,8 @@ RunSummary run_world(World& world, const RunOptions& options) {
   summary.simulated_seconds = world.time();
   summary.wall_seconds = step_wall;
   summary.output_seconds = output_wall;
+  if (rusage use{}; getrusage(RUSAGE_SELF, &use) == 0)
+    summary.peak_memory_bytes = static_cast<std::uint64_t>(use.ru_maxrss) * 1024u;  // Linux: KiB
   summary.bond_updates_per_second =
       step_wall > 0 ? double(bonds) * double(world.step_count() - session_step) / step_wall : 0.0;
   summary.threads = world.threads();
@@ -481,6 +485,7 @@ RunSummary run_world(World& world, const RunOptions& options) {
   js["step_wall_seconds"] = summary.wall_seconds;
   js["output_wall_seconds"] = summary.output_seconds;
   js["bond_updates_per_second"] = summary.bond_updates_per_second;
+  js["peak_memory_bytes"] = summary.peak_memory_bytes;
   js["ranks"] = summary.ranks;
   js["rebalances"] = summary.rebalances;
   js["contact_list_builds"] = summary.contact_list_builds;

@@ -50,6 +50,9 @@ struct RunSummary {
   double wall_seconds = 0.0;          // stepping only (setup and file output excluded)
   double output_seconds = 0.0;
   double bond_updates_per_second = 0.0;  // directed bonds × steps / stepping wall time
+  // This process's peak resident memory so far, bytes (getrusage; under mpirun, rank 0's): what a render
+  // farm job must reserve, beside `perifx check`'s estimate.
+  std::uint64_t peak_memory_bytes = 0;
   int threads = 0;
   int ranks = 1;                             // MPI ranks of a distributed run (1 in one process)
   std::uint64_t rebalances = 0;              // its re-splits as the work per rank drifted

@@ -490,12 +490,13 @@ int cmd_run(const Args& a) {
     char buf[500];
     std::snprintf(buf, sizeof buf,
                   "%s: %zu particles, %zu bonds (%zu alive), %zu fragments, %llu steps, frames %llu..%llu of %llu, %.3g s simulated\n"
-                  "      wall %.2f s stepping + %.2f s output, %.3g bond-updates/s on %d threads\n"
+                  "      wall %.2f s stepping + %.2f s output, %.3g bond-updates/s on %d threads, peak memory %s\n"
                   "      output: %s\n",
                   s.interrupted ? "interrupted" : "done", s.particles, s.bonds, s.alive_bonds, s.fragments,
                   (unsigned long long)s.steps, (unsigned long long)s.first_frame, (unsigned long long)s.last_frame,
                   (unsigned long long)s.frames, s.simulated_seconds, s.wall_seconds, s.output_seconds,
-                  s.bond_updates_per_second, s.threads, s.output_directory.string().c_str());
+                  s.bond_updates_per_second, s.threads, perifx::setup::format_bytes(double(s.peak_memory_bytes)).c_str(),
+                  s.output_directory.string().c_str());
     std::cerr << buf;
     // A distributed run: each rank's share, ghosts and the halo bytes it received per step.
     for (std::size_t r = 0; s.ranks > 1 && r < s.rank_stats.size(); ++r) {

@@ -65,6 +65,10 @@ TEST_CASE("run --profile: every system of the graph is timed once per step, and 
   CHECK(js["profile"][0]["system"] == systems[0].name);
   CHECK(js["profile"][0]["steps"] == b.steps);
   CHECK_FALSE(nlohmann::json::parse(test::slurp(plain_dir / "summary.json")).contains("profile"));
+  // The peak resident memory: at least the arrays the world holds (all written at set-up), and the same
+  // number in summary.json.
+  CHECK(b.peak_memory_bytes >= profiled.memory().total_bytes);
+  CHECK(js["peak_memory_bytes"].get<std::uint64_t>() == b.peak_memory_bytes);
   for (int k = 0; k <= 3; ++k) {
     char name[32];
     std::snprintf(name, sizeof name, "particles.%04d.vtu", k);
