@@ -5,10 +5,10 @@
 #include <cmath>
 #include <cstdio>
 #include <regex>
-
-#include <sys/resource.h>
 #include <sstream>
 #include <stdexcept>
+
+#include <sys/resource.h>
 
 #include <nlohmann/json.hpp>
 
