@@ -204,14 +204,10 @@ RunSummary run_world(World& world, const RunOptions& options) {
   const auto& sc = world.scene();
   RunSummary summary;
   summary.output_directory = options.output_directory ? *options.output_directory : sc.output.directory;
-  const double frame_interval = 1.0 / sc.time.frame_rate;
   const std::uint64_t frames =
       options.frames ? *options.frames
                      : static_cast<std::uint64_t>(std::floor(sc.time.duration * sc.time.frame_rate + 1e-9));
-  // Frame k is written at the step nearest to k/frame_rate.
-  auto step_of_frame = [&](std::uint64_t k) {
-    return static_cast<std::uint64_t>(std::llround(double(k) * frame_interval / world.dt()));
-  };
+  auto step_of_frame = [&](std::uint64_t k) { return io::frame_step(k, sc.time.frame_rate, world.dt()); };
   const std::uint64_t total_steps = step_of_frame(frames);
   io::PvdSeries pvd(summary.output_directory / "particles.pvd");
   io::PvdSeries surface_pvd(summary.output_directory / "surface.pvd");

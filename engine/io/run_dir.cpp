@@ -155,7 +155,7 @@ RunDirectory scan_run_directory(const fs::path& dir) {
   const RunMesh mesh = pvd_time.empty() ? read_run_mesh(dir) : RunMesh{};
   auto placed_time = [&](std::uint64_t k) {
     if (!(mesh.frame_rate > 0.0 && mesh.dt > 0.0)) return double(k) / 30.0;
-    return double(std::llround(double(k) * (1.0 / mesh.frame_rate) / mesh.dt)) * mesh.dt;
+    return double(frame_step(k, mesh.frame_rate, mesh.dt)) * mesh.dt;
   };
   for (auto& [k, f] : frames) {
     const auto it = f.particles.empty() ? pvd_time.end() : pvd_time.find(f.particles.filename().replace_extension(".vtu").string());

@@ -5,6 +5,7 @@
 // Only what the tools need is kept, as doubles.
 #pragma once
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <stdexcept>
@@ -98,6 +99,11 @@ struct RunMesh {
 };
 // FNV-1a 64 of the vertex count, tet count and connectivity, as 16 hex digits.
 std::string tet_hash(const std::vector<std::array<std::uint32_t, 4>>& tets, std::size_t vertices);
+// The step at which frame k is written: the step nearest to k/frame_rate (the runner writes frames
+// there; a reader without particles.pvd times frame k as frame_step(k, …) · dt).
+inline std::uint64_t frame_step(std::uint64_t k, double frame_rate, double dt) {
+  return static_cast<std::uint64_t>(std::llround(double(k) * (1.0 / frame_rate) / dt));
+}
 // Writes <dir>/mesh.json atomically (the tets only when vertices_are_particles).
 void write_run_mesh(const std::filesystem::path& dir, const RunMesh& mesh);
 // Throws RunDirError naming the file when mesh.json exists but is malformed.
