@@ -4,16 +4,20 @@
 //     η = y_j − y_p, ω the influence weight, V_j the volume), in the neighbour list's fixed order:
 //       K = Σ ω ξ⊗ξ V_j,  F_p = (Σ ω η⊗ξ V_j) K⁻¹,  Ḟ_p = (Σ ω (v_j − v_p)⊗ξ V_j) K⁻¹.
 //     F_p is used when p has ≥ 4 alive bonds, K is well conditioned (‖K‖‖K⁻¹‖ ≤ 1e4, Frobenius) and
-//     F_p is well conditioned (det > 0, ‖F‖², ‖F⁻¹‖² ≤ 12, i.e. no stretch beyond ~3.5×). A badly
-//     stretched or inverted F_p, or one fitted to a remnant family (< 8 alive bonds, or < 1/8 of the
-//     original ones), is replaced by its own rotation. With too few bonds or K
+//     F_p is well conditioned (det > 0, ‖F‖², ‖F⁻¹‖² ≤ 12, i.e. no stretch beyond ~3.5×). Where it is
+//     not (a remnant family: < 8 alive bonds, or < 1/8 of the original ones; too few bonds; a badly
+//     stretched or inverted fit), F_p is the mesh ring's affine fit (ring_fit below: p and the tets
+//     sharing a vertex with p's tet, placed from the fit's value o_p at p instead of y_p) when that is
+//     well conditioned, and counts as fitted. Else a badly stretched or inverted F_p, or one fitted to a
+//     remnant family, is replaced by its own rotation; with too few bonds or K
 //     ill-conditioned, F_p ← the particle's held rotation, which is step state kept by the
 //     mesh_rotations system (mesh_rotations.cpp): every step, the rotation of N + μ R_old (R_old: the
 //     rotation of the last step, μ = 1e-3 tr K), i.e. the rotation that best maps the few alive bonds,
 //     the last rotation filling what they leave free (a lone particle keeps its last rotation; two
 //     bonded particles turn with their bond). Ḟ_p ← 0 in both. A vertex v with tet group G
 //     (the tets that currently hold v; tet t is particle t), weights w_t = c_t m_t / Σ_G c m:
-//       x_v = Σ w_t (y_t + F_t (X_v − x_t)),   v_v = Σ w_t (v_t + Ḟ_t (X_v − x_t)),
+//       x_v = Σ w_t (o_t + F_t (X_v − x_t)),   v_v = Σ w_t (v_t + Ḟ_t (X_v − x_t))   (o_t = y_t but
+//       for a ring fit),
 //     c_t = 1 where F_t is t's own fitted gradient and 1e-3 where it is a fallback rotation, so a
 //     poorly bonded particle inside a piece follows its fitted neighbours at shared vertices rather
 //     than pulling them apart (its tet would otherwise stretch far more than the particles around it).
@@ -56,6 +60,69 @@ namespace {
 constexpr double kFallbackWeight = 1e-3;
 constexpr std::uint32_t kRemnantBonds = 8;
 
+// The mesh ring's fit, for a particle whose own bonds cannot give F_p (a remnant family, or too few
+// bonds): the least-squares affine map of p and the particles of the tets that share a vertex with p's
+// tet in the current (split) mesh (each counted once per shared vertex, weighed by its mass; p itself
+// once: without it a ring on one side of p's tet, as at the edge of a tear, extrapolated to the tet's
+// free vertex with a 2.75× stretch, fig01 ductile walls):
+//   x̄, ȳ, v̄ the weighted centres, S = Σ m (x − x̄)⊗(x − x̄), F = Σ m (y − ȳ)⊗(x − x̄) S⁻¹,
+//   Ḟ = Σ m (v − v̄)⊗(x − x̄) S⁻¹, and p's vertices are placed from o_p = ȳ + F (x_p − x̄) (the fit's
+//   value at p) instead of y_p.
+// The rendered surface is continuous over exactly those tets, so p's vertices move as they do. Taking
+// p's tet rotation only, or fitting around y_p (a particle held by a few bonds lags its ring), pulled a
+// short edge between p's tet and a stretched neighbourhood to 3–4.5× where the particles around had
+// stretched 2× (fig01 ductile walls, showcase: check-surface counted it). False (nothing written) when
+// the ring is too small or ill-conditioned (family_fits) or F fails deformation_conditioned.
+bool ring_fit(WorldState& w, std::size_t p) {
+  EmbeddedMesh& e = w.embedded;
+  if (p >= e.tets.size()) return false;
+  const auto& x = w.particles.reference_position;
+  const auto& y = w.particles.position;
+  const auto& vel = w.particles.velocity;
+  const auto& mass = w.particles.mass;
+  // Calls f(t) for p and for every tet of the ring, once per vertex it shares with p's tet.
+  auto for_ring = [&](auto&& f) {
+    f(static_cast<std::uint32_t>(p));
+    for (const std::uint32_t v : e.tets[p]) {
+      const std::uint32_t o = e.origin[v];
+      for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
+        const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
+        if (t != p && e.tets[t][s] == v) f(t);
+      }
+    }
+  };
+  double M = 0.0;
+  Vec3 xbar = Vec3::Zero(), ybar = Vec3::Zero(), vbar = Vec3::Zero();
+  std::uint32_t count = 0;
+  for_ring([&](std::uint32_t t) {
+    M += mass[t];
+    xbar += mass[t] * x[t];
+    ybar += mass[t] * y[t];
+    vbar += mass[t] * vel[t];
+    ++count;
+  });
+  if (!(M > 0.0)) return false;
+  xbar /= M;
+  ybar /= M;
+  vbar /= M;
+  Mat3 S = Mat3::Zero(), A = Mat3::Zero(), Adot = Mat3::Zero();
+  for_ring([&](std::uint32_t t) {
+    const Vec3 d = x[t] - xbar;
+    S += mass[t] * d * d.transpose();
+    A += mass[t] * (y[t] - ybar) * d.transpose();
+    Adot += mass[t] * (vel[t] - vbar) * d.transpose();
+  });
+  if (!family_fits(S, count - 1)) return false;  // p and at least 4 more
+  const Mat3 Sinv = S.inverse();
+  const Mat3 F = A * Sinv;
+  if (!deformation_conditioned(F)) return false;
+  e.deformation[p] = F;
+  e.deformation_rate[p] = Adot * Sinv;
+  e.deformation_origin[p] = ybar + F * (x[p] - xbar);
+  e.deformation_fitted[p] = 1;
+  return true;
+}
+
 // F_p and Ḟ_p of one particle (see the header comment). A pure function of the state: the fallback
 // reads the held rotation that the mesh_rotations system keeps current every step.
 void particle_deformation(WorldState& w, std::size_t p) {
@@ -65,6 +132,7 @@ void particle_deformation(WorldState& w, std::size_t p) {
   Mat3& F = e.deformation[p];
   Mat3& Fd = e.deformation_rate[p];
   e.deformation_fitted[p] = 0;
+  e.deformation_origin[p] = w.particles.position[p];
   if (family_fits(K, alive)) {
     const Mat3 Kinv = K.inverse();
     const Mat3 Fnew = N * Kinv;
@@ -81,10 +149,12 @@ void particle_deformation(WorldState& w, std::size_t p) {
       e.deformation_fitted[p] = 1;
       return;
     }
+    if (ring_fit(w, p)) return;
     F = polar_rotation(Fnew);  // badly stretched or inverted: its rotation only
     Fd.setZero();
     return;
   }
+  if (ring_fit(w, p)) return;
   // Too few bonds or K ill-conditioned: the held rotation of the last step (mesh_rotations.cpp: the
   // regularized-Kabsch rotation that best maps the alive bonds, the previous rotation filling what
   // they leave free).
@@ -102,19 +172,13 @@ void particle_deformation(WorldState& w, std::size_t p) {
 // rigid copy cannot. Only components whose particles hold together (each within the component's
 // reference radius of its rigid prediction; for a single tet always) are placed rigidly; the others,
 // if at least 4 particles span them, by their best-fit affine map x_v = ȳ + F (X_v − x̄),
-// F = A S⁻¹, S = Σ m_t (x_t − x̄)(x_t − x̄)ᵀ, used as is when it passes F_p's test (det > 0,
-// ‖F‖², ‖F⁻¹‖² ≤ 12), with its principal stretches clamped to [½, 2] when only det > 0, rigidly
-// otherwise: every small component is placed by one map with det > 0, which keeps every tet positive.
+// F = A S⁻¹, S = Σ m_t (x_t − x̄)(x_t − x̄)ᵀ, used when it passes F_p's test (det > 0,
+// ‖F‖², ‖F⁻¹‖² ≤ 12), rigidly otherwise: every small component is placed by one map with det > 0,
+// which keeps every tet positive. (Until 2026-12-06 a fit with det > 0 that failed the test had its
+// principal stretches clamped to [½, 2]; in a sliver of debris drawn out 4× and thinned to 0.3× the
+// clamped map pushed a vertex a horizon away from every particle of its piece: showcase, check-surface.)
 // Velocities keep the per-vertex value. Serial, in tet order: deterministic.
 constexpr std::uint32_t kRigidComponentTets = 8;
-
-// F with its principal stretches clamped to [½, 2] (det F > 0, so U and V have the same handedness
-// and the result keeps det > 0); passes deformation_conditioned.
-Mat3 clamp_stretch(const Mat3& F) {
-  const Eigen::JacobiSVD<Mat3> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Vec3 sigma = svd.singularValues().cwiseMax(0.5).cwiseMin(2.0);
-  return svd.matrixU() * sigma.asDiagonal() * svd.matrixV().transpose();
-}
 
 void rigid_small_components(WorldState& w) {
   EmbeddedMesh& e = w.embedded;
@@ -176,15 +240,13 @@ void rigid_small_components(WorldState& w) {
         residual = std::max(residual, (y[t] - ybar - R * (x[t] - xbar)).norm());
       }
       // Particles that have moved apart (the plastically stretched bonds of ductile debris): the
-      // component's best-fit affine map F = A S⁻¹ instead, when at least four particles span it,
-      // bounded as F_p is (else its principal stretches clamped to [½, 2]); if it is not
-      // orientation-preserving, the rigid placement. One map with det F > 0 cannot turn a tet inside
-      // out, where mixing the particles' own predictions at shared vertices can.
+      // component's best-fit affine map F = A S⁻¹ instead, when at least four particles span it and
+      // it is bounded as F_p is; else the rigid placement. One map with det F > 0 cannot turn a tet
+      // inside out, where mixing the particles' own predictions at shared vertices can.
       Mat3 F = R;
       if (residual > radius && b - a >= 4 && family_fits(S, static_cast<std::uint32_t>(b - a))) {
         const Mat3 fitted = A * S.inverse();
         if (deformation_conditioned(fitted)) F = fitted;
-        else if (fitted.determinant() > 0.0) F = clamp_stretch(fitted);
       }
       for (std::size_t k = a; k < b; ++k)
         for (std::uint32_t v : e.tets[small[k].second]) {
@@ -209,6 +271,7 @@ void size_deformation_arrays(WorldState& w) {
   e.deformation.resize(np);
   e.deformation_rate.resize(np);
   e.deformation_fitted.resize(np);
+  e.deformation_origin.resize(np);
   e.vertex_anchored.resize(e.vertices.size());
 }
 }  // namespace
@@ -245,7 +308,7 @@ void update_mesh_vertices(WorldState& w, double dt) {
         ++group;
         const Vec3 d = X - x[t];
         const double wt = e.deformation_fitted[t] ? mass[t] : kFallbackWeight * mass[t];
-        pos += wt * (y[t] + e.deformation[t] * d);
+        pos += wt * (e.deformation_origin[t] + e.deformation[t] * d);
         vv += wt * (vel[t] + e.deformation_rate[t] * d);
         m += wt;
       }
@@ -296,7 +359,7 @@ void update_mesh_vertices(WorldState& w, double dt) {
           pos += mass[t] * (a + G * (X - A));
           hangs = true;
         } else {
-          pos += mass[t] * (y[t] + e.deformation[t] * (X - x[t]));
+          pos += mass[t] * (e.deformation_origin[t] + e.deformation[t] * (X - x[t]));
         }
         m += mass[t];
       }
