@@ -43,7 +43,7 @@ TEST_CASE("check-surface: every fracture preview, every frame, all counts 0 (PER
   for (const char* rel : kFracture) {
     const fs::path file = kScenes / rel;
     if (only && file.filename().string().find(only) == std::string::npos) continue;
-    INFO("scene " << rel);
+    INFO("scene " << std::string(rel));
     scene::Scene sc = scene::load_scene_file(file);
     sc.output.vtu = false;
     sc.output.ply = true;  // the checker reads the particles' fragment_id
