@@ -253,7 +253,7 @@ void World::split(const std::vector<::perifx::distributed::Domain>* domains, con
                                      impl_->embedded_mesh || !w.embedded.tets.empty(), frame.size()};
   // At the first split the other ranks have waited here through rank 0's set-up: asleep, so that rank
   // 0 can set up on their cores (setup::setup_threads).
-  distributed::broadcast_bytes_asleep(whole.data(), sizeof whole);
+  distributed::broadcast_bytes(whole.data(), sizeof whole, distributed::Wait::asleep);
   frame.resize(whole[3]);
   distributed::broadcast_bytes(frame.data(), frame.size());
   if (!lead) distributed::take_world_frame(w, frame);  // the clock, bounds and bodies' measures

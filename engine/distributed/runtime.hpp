@@ -63,11 +63,12 @@ inline int launcher_ranks() {
   return v ? std::max(1, std::atoi(v)) : 1;
 }
 
+// How a rank waits in a collective: in MPI (spinning, the fastest answer), or asleep, polling every
+// millisecond, for a wait as long as rank 0's set-up, which leaves the waiting ranks' cores to rank 0
+// (setup::setup_threads).
+enum class Wait { spin, asleep };
 // Rank 0's `bytes` bytes at `data`, on every rank. Collective; throws std::runtime_error without MPI.
-void broadcast_bytes(void* data, std::size_t bytes);
-// The same for a wait as long as rank 0's set-up: the other ranks poll every millisecond and sleep in
-// between instead of spinning in MPI, which leaves their cores to rank 0 (setup::setup_threads).
-void broadcast_bytes_asleep(void* data, std::size_t bytes);
+void broadcast_bytes(void* data, std::size_t bytes, Wait wait = Wait::spin);
 // The job's ranks, those sharing this rank's machine (MPI_COMM_TYPE_SHARED) and whether rank 0 is one
 // of them: the memory preflight's placement (setup/preflight.hpp). Collective; {1, 1, true} without MPI
 // or outside mpirun.

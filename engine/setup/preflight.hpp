@@ -45,8 +45,8 @@ inline constexpr double kPartPeakFactor = 2.0;
 double machine_bytes(double world_bytes, const RankPlacement& placement);
 // The threads rank `rank` sets its world up with when each rank steps on `threads` (> 0): rank 0 builds
 // the whole world and checks its time step while the other ranks on its machine wait for it asleep
-// (distributed::broadcast_bytes_asleep), so it takes their threads too, up to what this process may
-// run on (oneTBB's default concurrency: the cores of its affinity mask). `threads` otherwise.
+// (distributed::broadcast_bytes with Wait::asleep), so it takes their threads too, up to what this
+// process may run on (oneTBB's default concurrency: the cores of its affinity mask). `threads` otherwise.
 int setup_threads(int threads, int rank, const RankPlacement& placement);
 
 struct MemoryEstimate {

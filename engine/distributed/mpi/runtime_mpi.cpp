@@ -103,20 +103,17 @@ int int_count(std::size_t count, const char* what) {
 
 }  // namespace
 
-void broadcast_bytes(void* data, std::size_t bytes) {
-  require_mpi();
-  char* p = static_cast<char*>(data);
-  for (std::size_t at = 0; at < bytes; at += kChunk)
-    check(MPI_Bcast(p + at, static_cast<int>(std::min(kChunk, bytes - at)), MPI_BYTE, 0, MPI_COMM_WORLD), "broadcast");
-}
-
-void broadcast_bytes_asleep(void* data, std::size_t bytes) {
+void broadcast_bytes(void* data, std::size_t bytes, Wait wait) {
   require_mpi();
   char* p = static_cast<char*>(data);
   for (std::size_t at = 0; at < bytes; at += kChunk) {
+    const int count = static_cast<int>(std::min(kChunk, bytes - at));
+    if (wait == Wait::spin) {
+      check(MPI_Bcast(p + at, count, MPI_BYTE, 0, MPI_COMM_WORLD), "broadcast");
+      continue;
+    }
     MPI_Request request;
-    check(MPI_Ibcast(p + at, static_cast<int>(std::min(kChunk, bytes - at)), MPI_BYTE, 0, MPI_COMM_WORLD, &request),
-          "broadcast");
+    check(MPI_Ibcast(p + at, count, MPI_BYTE, 0, MPI_COMM_WORLD, &request), "broadcast");
     for (int done = 0;;) {
       check(MPI_Test(&request, &done, MPI_STATUS_IGNORE), "broadcast test");
       if (done) break;

@@ -19,8 +19,7 @@ void MpiSession::abort(int exit_code) const { std::exit(exit_code); }
 
 struct Runtime::Impl {};
 Runtime::Runtime(const WorldState&, int, const std::vector<Domain>*, const RankStats*) { not_built(); }
-void broadcast_bytes(void*, std::size_t) { not_built(); }
-void broadcast_bytes_asleep(void*, std::size_t) { not_built(); }
+void broadcast_bytes(void*, std::size_t, Wait) { not_built(); }
 setup::RankPlacement rank_placement() { return {}; }
 int job_rank() { return 0; }
 Runtime::~Runtime() = default;
