@@ -37,6 +37,11 @@ std::size_t break_bonds(WorldState& w, Cut&& cut) {
   return n;
 }
 
+// Whether tets i and j share a face in the original mesh (tet t is particle t).
+bool face_adjacent(const EmbeddedMesh& e, std::uint32_t i, std::uint32_t j) {
+  return std::find(e.neighbors[i].begin(), e.neighbors[i].end(), std::int32_t(j)) != e.neighbors[i].end();
+}
+
 // damage → crack_faces → mesh_split → mesh_rotations → mesh_vertices, as the step graph runs them.
 void run_mesh_systems(WorldState& w) {
   systems::compute_damage(w);
@@ -584,10 +589,7 @@ TEST_CASE("embedded mesh: a small piece whose particles moved apart follows its 
   REQUIRE(piece.size() == 6);
   auto in_piece = [&](std::uint32_t p) { return std::find(piece.begin(), piece.end(), p) != piece.end(); };
   run_mesh_systems(w);
-  auto face_adjacent = [&](std::uint32_t i, std::uint32_t j) {
-    return std::find(e.neighbors[i].begin(), e.neighbors[i].end(), std::int32_t(j)) != e.neighbors[i].end();
-  };
-  break_bonds(w, [&](std::uint32_t i, std::uint32_t j) { return !(in_piece(i) && in_piece(j) && face_adjacent(i, j)); });
+  break_bonds(w, [&](std::uint32_t i, std::uint32_t j) { return !(in_piece(i) && in_piece(j) && face_adjacent(e, i, j)); });
   run_mesh_systems(w);
   // The piece's particles move by a strongly stretched, sheared and turned map (each particle far from
   // any rigid placement of the piece; plastically stretched debris looks like this); the rest scatter.
@@ -625,11 +627,8 @@ TEST_CASE("embedded mesh: a slab of remnant families under a large stretch follo
   // ~30: a remnant family, as in a ductile tear), so no face opens and the mesh stays one piece, but
   // none of them has a deformation gradient of its own.
   auto in_slab = [&](std::uint32_t i) { return x[i].x() > 0.06 && x[i].x() < 0.14; };
-  auto face_adjacent = [&](std::uint32_t i, std::uint32_t j) {
-    return std::find(e.neighbors[i].begin(), e.neighbors[i].end(), std::int32_t(j)) != e.neighbors[i].end();
-  };
   run_mesh_systems(w);
-  break_bonds(w, [&](std::uint32_t i, std::uint32_t j) { return (in_slab(i) || in_slab(j)) && !face_adjacent(i, j); });
+  break_bonds(w, [&](std::uint32_t i, std::uint32_t j) { return (in_slab(i) || in_slab(j)) && !face_adjacent(e, i, j); });
   // The whole body, slab included, follows one map stretched 2× along x and 0.8× along z, turned.
   const Mat3 F = Eigen::AngleAxisd(0.4, Vec3(1, 2, -1).normalized()).toRotationMatrix() * Vec3(2.0, 1.0, 0.8).asDiagonal();
   REQUIRE(systems::deformation_conditioned(F));
