@@ -105,11 +105,7 @@ void ensure_vertex_weights(WorldState& w) {
   std::vector<std::uint32_t> group;
   for (std::uint32_t v = 0; v < nv; ++v) {
     group.clear();
-    const std::uint32_t o = e.origin[v];
-    for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
-      const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
-      if (e.tets[t][s] == v) group.push_back(t);
-    }
+    for_each_holding_tet(e, v, [&](std::uint32_t t, std::uint32_t) { group.push_back(t); });
     if (!group.empty()) embed_vertex(w, v, group);
   }
 }

@@ -53,11 +53,7 @@ std::array<std::uint32_t, 3> sorted_face(const std::array<std::uint32_t, 4>& tet
 void holding(const EmbeddedMesh& e, std::uint32_t v, std::vector<std::uint32_t>& tets, std::vector<std::uint32_t>& slot) {
   tets.clear();
   slot.clear();
-  const std::uint32_t o = e.origin[v];
-  for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
-    const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
-    if (e.tets[t][s] == v) tets.push_back(t), slot.push_back(s);
-  }
+  for_each_holding_tet(e, v, [&](std::uint32_t t, std::uint32_t s) { tets.push_back(t), slot.push_back(s); });
 }
 
 int slot_of(const std::array<std::uint32_t, 4>& tet, std::uint32_t v) {

@@ -83,13 +83,10 @@ bool ring_fit(WorldState& w, std::size_t p) {
   // Calls f(t) for p and for every tet of the ring, once per vertex it shares with p's tet.
   auto for_ring = [&](auto&& f) {
     f(static_cast<std::uint32_t>(p));
-    for (const std::uint32_t v : e.tets[p]) {
-      const std::uint32_t o = e.origin[v];
-      for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
-        const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
-        if (t != p && e.tets[t][s] == v) f(t);
-      }
-    }
+    for (const std::uint32_t v : e.tets[p])
+      for_each_holding_tet(e, v, [&](std::uint32_t t, std::uint32_t) {
+        if (t != p) f(t);
+      });
   };
   double M = 0.0;
   Vec3 xbar = Vec3::Zero(), ybar = Vec3::Zero(), vbar = Vec3::Zero();
@@ -295,15 +292,12 @@ void update_mesh_vertices(WorldState& w, double dt) {
     parallel_for_each(np, [&](std::size_t p) { particle_deformation(w, p); }, 256);
     const auto& mass = w.particles.mass;
     parallel_for_each(e.vertices.size(), [&](std::size_t v) {
-      const std::uint32_t o = e.origin[v];
       const Vec3 X = e.reference_vertices[v];
       Vec3 pos = Vec3::Zero(), vv = Vec3::Zero();
       double m = 0.0;
       std::uint8_t fitted = 0;  // some tet of the group has its own fitted F
       std::uint32_t group = 0;
-      for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
-        const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
-        if (e.tets[t][s] != v) continue;
+      for_each_holding_tet(e, static_cast<std::uint32_t>(v), [&](std::uint32_t t, std::uint32_t) {
         fitted |= e.deformation_fitted[t];
         ++group;
         const Vec3 d = X - x[t];
@@ -311,7 +305,7 @@ void update_mesh_vertices(WorldState& w, double dt) {
         pos += wt * (e.deformation_origin[t] + e.deformation[t] * d);
         vv += wt * (vel[t] + e.deformation_rate[t] * d);
         m += wt;
-      }
+      });
       if (m > 0.0) {
         e.vertices[v] = pos / m;
         e.vertex_velocity[v] = vv / m;
@@ -330,14 +324,11 @@ void update_mesh_vertices(WorldState& w, double dt) {
     // the tet's own shape. Reads only anchored vertices, writes only loose ones: parallel, deterministic.
     parallel_for_each(e.vertices.size(), [&](std::size_t v) {
       if (e.vertex_anchored[v]) return;
-      const std::uint32_t o = e.origin[v];
       const Vec3 X = e.reference_vertices[v];
       Vec3 pos = Vec3::Zero();
       double m = 0.0;
       bool hangs = false;
-      for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
-        const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
-        if (e.tets[t][s] != v) continue;
+      for_each_holding_tet(e, static_cast<std::uint32_t>(v), [&](std::uint32_t t, std::uint32_t) {
         Vec3 a = Vec3::Zero(), A = Vec3::Zero();
         int anchors = 0;
         for (std::uint32_t u : e.tets[t])
@@ -362,7 +353,7 @@ void update_mesh_vertices(WorldState& w, double dt) {
           pos += mass[t] * (e.deformation_origin[t] + e.deformation[t] * (X - x[t]));
         }
         m += mass[t];
-      }
+      });
       if (hangs && m > 0.0) e.vertices[v] = pos / m;
     }, 1024);
     rigid_small_components(w);
@@ -384,15 +375,12 @@ void update_mesh_vertices(WorldState& w, double dt) {
   }
   const auto& mass = w.particles.mass;
   parallel_for_each(e.vertices.size(), [&](std::size_t v) {
-    const std::uint32_t o = e.origin[v];
     Vec3 momentum = Vec3::Zero();
     double m = 0.0;
-    for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
-      const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
-      if (e.tets[t][s] != v) continue;
+    for_each_holding_tet(e, static_cast<std::uint32_t>(v), [&](std::uint32_t t, std::uint32_t) {
       momentum += 0.25 * mass[t] * vel[t];  // Eq 20: each tet contributes m_t/4
       m += 0.25 * mass[t];
-    }
+    });
     if (m > 0.0) e.vertex_velocity[v] = momentum / m;  // Eq 21
     e.vertices[v] += dt * e.vertex_velocity[v];        // Eq 22
   }, 1024);

@@ -12,6 +12,18 @@
 
 namespace perifx::systems {
 
+// Calls f(t, s) for every tet t that currently holds embedded-mesh vertex v, in tet order, s being v's
+// slot in t: the entries of the incidence of v's original (EmbeddedMesh::origin) whose slot still
+// names v after splitting (a copy's group is the part of its original's incidence it took).
+template <class F>
+void for_each_holding_tet(const EmbeddedMesh& e, std::uint32_t v, F&& f) {
+  const std::uint32_t o = e.origin[v];
+  for (std::uint32_t q = e.incidence_offsets[o]; q < e.incidence_offsets[o + 1]; ++q) {
+    const std::uint32_t t = e.incidence[q] / 4, s = e.incidence[q] % 4;
+    if (e.tets[t][s] == v) f(t, s);
+  }
+}
+
 // ---- setup (run once, not part of the step graph) ----
 // family_build.cpp: families and bond data from reference positions, horizons and, for the mesh
 // rule, the face adjacency of the embedded tet mesh (paper §5.2, systems/README.md §6.2).

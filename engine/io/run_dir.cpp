@@ -230,12 +230,9 @@ void write_run_mesh(const fs::path& dir, const RunMesh& m) {
   text += ",\n  \"vertices\": " + std::to_string(m.vertices);
   text += ",\n  \"tet_count\": " + std::to_string(m.tet_count);
   text += ",\n  \"tet_hash\": \"" + m.hash + "\"";
-  if (m.horizon > 0.0) {  // runs that write surfaces: what `perifx check-surface` measures against
-    char buf[32];
-    const auto r = std::to_chars(buf, buf + sizeof buf, m.horizon);
-    text += ",\n  \"horizon\": " + std::string(buf, r.ptr);
-  }
-  for (const auto& [key, value] : {std::pair{"frame_rate", m.frame_rate}, std::pair{"dt", m.dt}}) {
+  // Each only when known (> 0): the horizon for runs that write surfaces (what `perifx check-surface`
+  // measures against), the frame rate and step for frame times without particles.pvd.
+  for (const auto& [key, value] : {std::pair{"horizon", m.horizon}, std::pair{"frame_rate", m.frame_rate}, std::pair{"dt", m.dt}}) {
     if (!(value > 0.0)) continue;
     char buf[32];
     const auto r = std::to_chars(buf, buf + sizeof buf, value);

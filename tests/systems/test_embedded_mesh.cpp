@@ -694,9 +694,7 @@ TEST_CASE("embedded mesh: a tet whose particle hangs on by one stretched bond ke
   // 1.5 cells / ring (measured: ring 36, edge ratio 1.034, the body's vertices 0.032 cells). Following
   // p itself stretched this tet 2.8× and moved the body's vertices 0.16 cells.
   std::size_t ring = 1;
-  for (const auto v : tet)
-    for (std::uint32_t k = e.incidence_offsets[e.origin[v]]; k < e.incidence_offsets[e.origin[v] + 1]; ++k)
-      ring += e.incidence[k] / 4 != p && e.tets[e.incidence[k] / 4][e.incidence[k] % 4] == v;
+  for (const auto v : tet) systems::for_each_holding_tet(e, v, [&](std::uint32_t t, std::uint32_t) { ring += t != p; });
   const double lean = 1.5 * 0.025 / static_cast<double>(ring);
   MESSAGE("hanging tet: worst edge ratio " << worst_ratio << ", body vertices off by " << body_error / 0.025
                                            << " cells; ring entries " << ring << ", lean " << lean / 0.025 << " cells");
