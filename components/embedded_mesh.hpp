@@ -62,8 +62,10 @@ struct EmbeddedMesh {
   std::vector<Mat3> deformation_rate;  // Ḟ_p, 1/s (zero where F_p is a held rotation)
   std::vector<std::uint8_t> deformation_fitted;  // 1 where F_p is p's own fitted gradient, 0 where it
                                                  // is a fallback rotation (weighs 1e-3 at shared vertices)
-  std::vector<Vec3> deformation_origin;  // o_p, m: where p's vertices are placed from (y_p, or the
-                                         // mesh ring's fit at p, systems/mesh_vertices.cpp)
+  std::vector<Vec3> deformation_origin;  // o_p, m: where p's vertices are placed from: the value at p of
+                                         // the affine fit that gave F_p (family or mesh ring), or y_p
+                                         // for a fallback rotation (systems/mesh_vertices.cpp)
+  std::vector<Vec3> deformation_origin_velocity;  // ȯ_p, m/s: that fit's velocity at p (or v_p)
   std::vector<std::uint8_t> vertex_anchored;     // per vertex: 1 when a tet with a fitted F holds it
   // Step state, kept by the mesh_rotations system (systems/mesh_rotations.cpp) for tracked particles
   // (family does not fit, or a bond broke): S_p = F_p of the last evaluation (every step for a poor

@@ -191,6 +191,7 @@ void for_each_array(W& w, F&& f) {
   f(K::mesh, "embedded.deformation_rate", e.deformation_rate);
   f(K::mesh, "embedded.deformation_fitted", e.deformation_fitted);
   f(K::mesh, "embedded.deformation_origin", e.deformation_origin);
+  f(K::mesh, "embedded.deformation_origin_velocity", e.deformation_origin_velocity);
   f(K::mesh, "embedded.vertex_anchored", e.vertex_anchored);
   f(K::mesh, "embedded.held_deformation", e.held_deformation);
   f(K::mesh, "embedded.held_tracked", e.held_tracked);

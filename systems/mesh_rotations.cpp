@@ -58,12 +58,17 @@ namespace {
 // SIMD; as scalar Eigen loops the vertex pass took 4.1× and the held rotations 2.4–3.3× as long at 3e5
 // particles (bench/README.md, "The family sums as SIMD"):
 //   K  = Σ ω V_j ξ⊗ξ,  N = Σ ω V_j η⊗ξ (η = y_j − y_p; kN),  Ṅ = Σ ω V_j (v_j − v_p)⊗ξ (kRate),
+// and with Ṅ the first moments Σ ω V_j, Σ ω V_j ξ, Σ ω V_j η, Σ ω V_j (v_j − v_p) (FamilyMoments),
 // ω = δ̃_p/ℓ with the influence ramp (bond_rules.hpp: bond_weight's weight), over p's alive bonds or all.
 // A bond left out is multiplied by 0.0, not selected away: a select around the gathers kept GCC 12 from
 // vectorizing the loop. Its terms are finite (V_j/ℓ > 0, positions finite), so the sums have the same
 // bits as if it were skipped. Per-lane sums added in lane order: the same bits for any thread count.
-template <bool kAnisotropic, bool kN, bool kRate>
-std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3* N, Mat3* Nd) {
+// kRobust (with kN): each bond's weight times s²|ξ|² / (s²|ξ|² + |η − c − F ξ|²), (c, F) = `prior`,
+// s = robust_residual_scale.
+template <bool kAnisotropic, bool kN, bool kRate, bool kRobust = false>
+std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3* N, Mat3* Nd,
+                             FamilyMoments* moments, const FamilyFit* prior = nullptr) {
+  static_assert(kN || !kRobust);
   const auto bs = bond_streams(w, w.particles.position);
   const double* const volume = w.particles.volume.data();
   const double* const v = w.particles.velocity.data()->data();
@@ -75,6 +80,15 @@ std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only
   const std::uint64_t keep_dead = alive_only ? 0 : 1;
   // K symmetric (6), N and Ṅ (9 each), row-major: n[3a + b] = Σ ω V η_a ξ_b.
   double k6[6][kBondLanes] = {}, n9[9][kBondLanes] = {}, r9[9][kBondLanes] = {}, count[kBondLanes] = {};
+  // First moments (kRate): Σ ω V, then Σ ω V ξ, η, v_j − v_p by component.
+  double m10[10][kBondLanes] = {};
+  double pc[3] = {}, pf[9] = {};  // the prior fit (kRobust), F row-major
+  if constexpr (kRobust)
+    for (int a = 0; a < 3; ++a) {
+      pc[a] = prior->offset[a];
+      for (int b = 0; b < 3; ++b) pf[3 * a + b] = prior->gradient(a, b);
+    }
+  constexpr double s2 = robust_residual_scale * robust_residual_scale;
   // The chunk's far ends in lane order (bond_gather.hpp: positions by load + transpose).
   ChunkPositions cp;
   alignas(64) double vol[kBondLanes], cv[3][kBondLanes];
@@ -87,12 +101,22 @@ std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only
         cv[0][l] = v[j], cv[1][l] = v[j + 1], cv[2][l] = v[j + 2];
       }
   };
-  auto lane = [=, &k6, &n9, &r9, &count, &g_p, &cp, &vol, &cv](std::size_t, int l, std::uint64_t is_alive) {
+  auto lane = [=, &k6, &n9, &r9, &m10, &count, &g_p, &cp, &vol, &cv, &pc, &pf](std::size_t, int l, std::uint64_t is_alive) {
     const double dx[3] = {cp.xx[l] - o.xx, cp.xy[l] - o.xy, cp.xz[l] - o.xz};
     const double r = reference_length(dx[0], dx[1], dx[2]);
     const double use = static_cast<double>((is_alive | keep_dead) != 0);
-    const double weight =
+    double weight =
         vol[l] * ramped_horizon(delta, r, ramp) / weighted_length<kAnisotropic>(g_p, r, dx[0], dx[1], dx[2]) * use;
+    if constexpr (kRobust) {
+      double res2 = 0.0;
+      for (int a = 0; a < 3; ++a) {
+        const double dya = a == 0 ? cp.yx[l] - o.yx : a == 1 ? cp.yy[l] - o.yy : cp.yz[l] - o.yz;
+        const double res = dya - pc[a] - (pf[3 * a] * dx[0] + pf[3 * a + 1] * dx[1] + pf[3 * a + 2] * dx[2]);
+        res2 += res * res;
+      }
+      const double scaled = s2 * (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]);
+      weight *= scaled / (scaled + res2);
+    }
     const double wx[3] = {weight * dx[0], weight * dx[1], weight * dx[2]};
     k6[0][l] += wx[0] * dx[0], k6[1][l] += wx[1] * dx[1], k6[2][l] += wx[2] * dx[2];
     k6[3][l] += wx[0] * dx[1], k6[4][l] += wx[0] * dx[2], k6[5][l] += wx[1] * dx[2];
@@ -105,6 +129,13 @@ std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only
       const double dv[3] = {cv[0][l] - vx, cv[1][l] - vy, cv[2][l] - vz};
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) r9[3 * a + b][l] += dv[a] * wx[b];
+      const double dy[3] = {cp.yx[l] - o.yx, cp.yy[l] - o.yy, cp.yz[l] - o.yz};
+      m10[0][l] += weight;
+      for (int a = 0; a < 3; ++a) {
+        m10[1 + a][l] += wx[a];
+        m10[4 + a][l] += weight * dy[a];
+        m10[7 + a][l] += weight * dv[a];
+      }
     }
     count[l] += use;
   };
@@ -115,20 +146,33 @@ std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only
   if constexpr (kN)
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b) (*N)(a, b) = sum_lanes(n9[3 * a + b]);
-  if constexpr (kRate)
+  if constexpr (kRate) {
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b) (*Nd)(a, b) = sum_lanes(r9[3 * a + b]);
+    if (moments) {
+      moments->weight = sum_lanes(m10[0]);
+      for (int a = 0; a < 3; ++a) {
+        moments->xi[a] = sum_lanes(m10[1 + a]);
+        moments->eta[a] = sum_lanes(m10[4 + a]);
+        moments->velocity[a] = sum_lanes(m10[7 + a]);
+      }
+    }
+  }
   return static_cast<std::uint32_t>(sum_lanes(count));  // exact: integers far below 2^53
 }
 
 }  // namespace
 
-std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N, Mat3* rate) {
+std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N, Mat3* rate,
+                          FamilyMoments* moments, const FamilyFit* prior) {
+  if (rate && prior)
+    return w.any_anisotropic ? family_tensors<true, true, true, true>(w, p, alive_only, K, &N, rate, moments, prior)
+                             : family_tensors<false, true, true, true>(w, p, alive_only, K, &N, rate, moments, prior);
   if (rate)
-    return w.any_anisotropic ? family_tensors<true, true, true>(w, p, alive_only, K, &N, rate)
-                             : family_tensors<false, true, true>(w, p, alive_only, K, &N, rate);
-  return w.any_anisotropic ? family_tensors<true, true, false>(w, p, alive_only, K, &N, nullptr)
-                           : family_tensors<false, true, false>(w, p, alive_only, K, &N, nullptr);
+    return w.any_anisotropic ? family_tensors<true, true, true>(w, p, alive_only, K, &N, rate, moments)
+                             : family_tensors<false, true, true>(w, p, alive_only, K, &N, rate, moments);
+  return w.any_anisotropic ? family_tensors<true, true, false>(w, p, alive_only, K, &N, nullptr, nullptr)
+                           : family_tensors<false, true, false>(w, p, alive_only, K, &N, nullptr, nullptr);
 }
 
 namespace {
@@ -176,7 +220,7 @@ void init_held_rotations(WorldState& w) {
     constexpr bool kAnisotropic = decltype(aniso)::value;
     parallel_for_each(np, [&](std::size_t p) {
       Mat3 K;  // K alone (as a scalar loop it was 9 % of a 9e5-particle set-up's CPU)
-      const std::uint32_t alive = family_tensors<kAnisotropic, false, false>(w, p, true, K, nullptr, nullptr);
+      const std::uint32_t alive = family_tensors<kAnisotropic, false, false>(w, p, true, K, nullptr, nullptr, nullptr);
       const std::uint32_t listed = w.bonds.offsets[p + 1] - w.bonds.offsets[p];
       if (alive < listed || !family_fits(K, alive)) e.held_tracked[p] = 1;
     }, 256);

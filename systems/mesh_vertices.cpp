@@ -2,7 +2,15 @@
 // with the particles, after mesh_split, so every vertex copy follows only its own tet group.
 //   VertexMotion::deformation (default): per particle p, over its alive bonds j (ξ = x_j − x_p,
 //     η = y_j − y_p, ω the influence weight, V_j the volume), in the neighbour list's fixed order:
-//       K = Σ ω ξ⊗ξ V_j,  F_p = (Σ ω η⊗ξ V_j) K⁻¹,  Ḟ_p = (Σ ω (v_j − v_p)⊗ξ V_j) K⁻¹.
+//     the family's affine least-squares fit η ≈ c_p + F_p ξ, v_j − v_p ≈ ċ_p + Ḟ_p ξ (weights ω V_j,
+//     sums about the family's weighted centre, affine_family_fit; y_p and v_p cancel), then once more
+//     with each weight times s²|ξ|² / (s²|ξ|² + |η − c_p − F_p ξ|²), s = 1/4 (a bond far off the
+//     family's motion weighs less); p's vertices are placed from o_p = y_p + c_p, the fit's value at p.
+//     Through y_p (K = Σ ω ξ⊗ξ V_j, F_p = (Σ ω η⊗ξ V_j) K⁻¹, as until 2026-12-06) a particle jostled
+//     off its family's motion (an impact's contact layer) carried its tet's vertices with it, and a
+//     neighbour hanging on by a stretched bond tilted F_p (the finer fig16 preview: 27 triangles
+//     stretched past the particles around; with the fit, 8). The reweighting keeps such a neighbour
+//     from moving the centred fit's origin. A family too flat about its centre keeps the fit through y_p.
 //     F_p is used when p has ≥ 4 alive bonds, K is well conditioned (‖K‖‖K⁻¹‖ ≤ 1e4, Frobenius) and
 //     F_p is well conditioned (det > 0, ‖F‖², ‖F⁻¹‖² ≤ 12, i.e. no stretch beyond ~3.5×). Where it is
 //     not (a remnant family: < 8 alive bonds, or < 1/8 of the original ones; too few bonds; a badly
@@ -16,8 +24,8 @@
 //     the last rotation filling what they leave free (a lone particle keeps its last rotation; two
 //     bonded particles turn with their bond). Ḟ_p ← 0 in both. A vertex v with tet group G
 //     (the tets that currently hold v; tet t is particle t), weights w_t = c_t m_t / Σ_G c m:
-//       x_v = Σ w_t (o_t + F_t (X_v − x_t)),   v_v = Σ w_t (v_t + Ḟ_t (X_v − x_t))   (o_t = y_t but
-//       for a ring fit),
+//       x_v = Σ w_t (o_t + F_t (X_v − x_t)),   v_v = Σ w_t (ȯ_t + Ḟ_t (X_v − x_t))   (o_t, ȯ_t the
+//       value at t of the fit that gave F_t and Ḟ_t; y_t, v_t for a fallback rotation),
 //     c_t = 1 where F_t is t's own fitted gradient and 1e-3 where it is a fallback rotation, so a
 //     poorly bonded particle inside a piece follows its fitted neighbours at shared vertices rather
 //     than pulling them apart (its tet would otherwise stretch far more than the particles around it).
@@ -67,7 +75,7 @@ constexpr std::uint32_t kRemnantBonds = 8;
 // free vertex with a 2.75× stretch, fig01 ductile walls):
 //   x̄, ȳ, v̄ the weighted centres, S = Σ m (x − x̄)⊗(x − x̄), F = Σ m (y − ȳ)⊗(x − x̄) S⁻¹,
 //   Ḟ = Σ m (v − v̄)⊗(x − x̄) S⁻¹, and p's vertices are placed from o_p = ȳ + F (x_p − x̄) (the fit's
-//   value at p) instead of y_p.
+//   value at p) instead of y_p, moving with ȯ_p = v̄ + Ḟ (x_p − x̄).
 // The rendered surface is continuous over exactly those tets, so p's vertices move as they do. Taking
 // p's tet rotation only, or fitting around y_p (a particle held by a few bonds lags its ring), pulled a
 // short edge between p's tet and a stretched neighbourhood to 3–4.5× where the particles around had
@@ -116,7 +124,31 @@ bool ring_fit(WorldState& w, std::size_t p) {
   e.deformation[p] = F;
   e.deformation_rate[p] = Adot * Sinv;
   e.deformation_origin[p] = ybar + F * (x[p] - xbar);
+  e.deformation_origin_velocity[p] = vbar + e.deformation_rate[p] * (x[p] - xbar);
   e.deformation_fitted[p] = 1;
+  return true;
+}
+
+// The family's affine least-squares fit η ≈ c + F ξ, v_j − v_p ≈ ċ + Ḟ ξ (weights ω V; F_p and its
+// origin): the sums about the family's weighted centre ξ̄ = Σ ω V ξ / Σ ω V (η̄, v̄ likewise),
+//   F = (N − W η̄ ξ̄ᵀ) K_c⁻¹,  Ḟ = (Ṅ − W v̄ ξ̄ᵀ) K_c⁻¹,  K_c = K − W ξ̄ ξ̄ᵀ,  c = η̄ − F ξ̄,  ċ = v̄ − Ḟ ξ̄,
+// in which y_p and v_p cancel. False when the family is too flat about its centre (family_fits).
+struct AffineFamilyFit {
+  Mat3 gradient, rate;
+  Vec3 offset, offset_rate;
+};
+bool affine_family_fit(const Mat3& K, const Mat3& N, const Mat3& Nd, const FamilyMoments& mo, std::uint32_t alive,
+                       AffineFamilyFit& fit) {
+  const double W = mo.weight;
+  if (!(W > 0.0)) return false;
+  const Vec3 xi_c = mo.xi / W, eta_c = mo.eta / W, vel_c = mo.velocity / W;
+  const Mat3 Kc = K - W * xi_c * xi_c.transpose();
+  if (!family_fits(Kc, alive)) return false;
+  const Mat3 Kinv = Kc.inverse();
+  fit.gradient = (N - W * eta_c * xi_c.transpose()) * Kinv;
+  fit.rate = (Nd - W * vel_c * xi_c.transpose()) * Kinv;
+  fit.offset = eta_c - fit.gradient * xi_c;
+  fit.offset_rate = vel_c - fit.rate * xi_c;
   return true;
 }
 
@@ -125,14 +157,14 @@ bool ring_fit(WorldState& w, std::size_t p) {
 void particle_deformation(WorldState& w, std::size_t p) {
   EmbeddedMesh& e = w.embedded;
   Mat3 K, N, Nd;
-  const std::uint32_t alive = family_sums(w, p, true, K, N, &Nd);
+  FamilyMoments moments;
+  const std::uint32_t alive = family_sums(w, p, true, K, N, &Nd, &moments);
   Mat3& F = e.deformation[p];
   Mat3& Fd = e.deformation_rate[p];
   e.deformation_fitted[p] = 0;
   e.deformation_origin[p] = w.particles.position[p];
+  e.deformation_origin_velocity[p] = w.particles.velocity[p];
   if (family_fits(K, alive)) {
-    const Mat3 Kinv = K.inverse();
-    const Mat3 Fnew = N * Kinv;
     // A remnant family (fewer than kRemnantBonds alive, or under 1/kRemnantBonds of those it started with)
     // gives a fit ruled by its last few bonds: in a ductile tear they are the drawn-out ligament, and F read
     // 2.7–3.0× along it where the particles around had stretched 1.2–1.8× (fig05 and fig01 ductile previews,
@@ -140,10 +172,31 @@ void particle_deformation(WorldState& w, std::size_t p) {
     // fit's rotation only, as a badly stretched fit does.
     const auto& initial = w.bonds.initial_count;
     const bool remnant = alive < kRemnantBonds || (p < initial.size() && std::uint64_t{kRemnantBonds} * alive < initial[p]);
+    AffineFamilyFit fit;
+    const bool affine = affine_family_fit(K, N, Nd, moments, alive, fit);
+    if (affine && !remnant) {
+      // Once more with each bond's weight lowered by how far it lies off that fit (robust_residual_scale),
+      // so that one neighbour off the family's motion (hanging on by a stretched bond, or jostled at an
+      // impact) cannot move p's vertices with it.
+      const FamilyFit prior{fit.offset, fit.gradient};
+      Mat3 K2, N2, Nd2;
+      FamilyMoments moments2;
+      family_sums(w, p, true, K2, N2, &Nd2, &moments2, &prior);
+      AffineFamilyFit reweighted;
+      if (affine_family_fit(K2, N2, Nd2, moments2, alive, reweighted) && deformation_conditioned(reweighted.gradient))
+        fit = reweighted;
+    }
+    const Mat3 Fnew = affine ? fit.gradient : Mat3(N * K.inverse());
     if (!remnant && deformation_conditioned(Fnew)) {
       F = Fnew;
-      Fd = Nd * Kinv;
       e.deformation_fitted[p] = 1;
+      if (affine) {
+        Fd = fit.rate;
+        e.deformation_origin[p] += fit.offset;
+        e.deformation_origin_velocity[p] += fit.offset_rate;
+      } else {  // a family too flat about its centre: the fit through y_p
+        Fd = Nd * K.inverse();
+      }
       return;
     }
     if (ring_fit(w, p)) return;
@@ -269,6 +322,7 @@ void size_deformation_arrays(WorldState& w) {
   e.deformation_rate.resize(np);
   e.deformation_fitted.resize(np);
   e.deformation_origin.resize(np);
+  e.deformation_origin_velocity.resize(np);
   e.vertex_anchored.resize(e.vertices.size());
 }
 }  // namespace
@@ -303,7 +357,7 @@ void update_mesh_vertices(WorldState& w, double dt) {
         const Vec3 d = X - x[t];
         const double wt = e.deformation_fitted[t] ? mass[t] : kFallbackWeight * mass[t];
         pos += wt * (e.deformation_origin[t] + e.deformation[t] * d);
-        vv += wt * (vel[t] + e.deformation_rate[t] * d);
+        vv += wt * (e.deformation_origin_velocity[t] + e.deformation_rate[t] * d);
         m += wt;
       });
       if (m > 0.0) {

@@ -123,11 +123,27 @@ void init_held_rotations(WorldState& world);
 void update_held_rotations(WorldState& world);
 bool family_fits(const Mat3& K, std::uint32_t alive);
 bool deformation_conditioned(const Mat3& F);
+// The first moments of a family (ω V weights): Σ ω V_j, Σ ω V_j ξ, Σ ω V_j η, Σ ω V_j (v_j − v_p).
+struct FamilyMoments {
+  double weight = 0.0;
+  Vec3 xi = Vec3::Zero(), eta = Vec3::Zero(), velocity = Vec3::Zero();
+};
+// An affine fit of a family's motion, η ≈ offset + gradient ξ.
+struct FamilyFit {
+  Vec3 offset;
+  Mat3 gradient;
+};
+// Residual scale s of the reweighted family sums: a bond whose end lies |ξ|/4 off a prior fit weighs
+// half. A bond that far off holds a strain error of a quarter against its family's motion: a
+// neighbour hanging on by a stretched bond, or jostled at an impact (mesh_vertices.cpp).
+inline constexpr double robust_residual_scale = 0.25;
 // K = Σ ω ξ⊗ξ V_j and N = Σ ω η⊗ξ V_j over p's bonds (alive ones only, or all), and with `rate` also
-// Ṅ = Σ ω (v_j − v_p)⊗ξ V_j (F = N K⁻¹, Ḟ = Ṅ K⁻¹ when family_fits); returns the number of bonds
-// summed. Lane-strided SIMD sums in a fixed order (mesh_rotations.cpp).
+// Ṅ = Σ ω (v_j − v_p)⊗ξ V_j (F = N K⁻¹, Ḟ = Ṅ K⁻¹ when family_fits) and, when given, the first
+// moments; with `rate` and `prior` every weight ω V is multiplied by s²|ξ|² / (s²|ξ|² + |η − c − F ξ|²)
+// (c, F the prior fit, s = robust_residual_scale). Returns the number of bonds summed. Lane-strided
+// SIMD sums in a fixed order (mesh_rotations.cpp).
 std::uint32_t family_sums(const WorldState& w, std::size_t p, bool alive_only, Mat3& K, Mat3& N,
-                          Mat3* rate = nullptr);
+                          Mat3* rate = nullptr, FamilyMoments* moments = nullptr, const FamilyFit* prior = nullptr);
 // F = N K⁻¹ when the family fits, replaced by its rotation when badly stretched or inverted; false
 // (F untouched) when the family does not fit. The held rotations and the surface frames use it.
 bool fitted_deformation(const Mat3& K, const Mat3& N, std::uint32_t alive, Mat3& F);

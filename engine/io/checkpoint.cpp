@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'P', 'E', 'R', 'I', 'F', 'X', 'C', 'K'};
-constexpr std::uint32_t kVersion = 16;  // 2: embedded.held_deformation, embedded.held_tracked;
+constexpr std::uint32_t kVersion = 17;  // 2: embedded.held_deformation, embedded.held_tracked;
                                        // 3: contact moved-particle updates (per-particle search positions);
                                        // 4: no per-bond |ξ|, ω, mirror index; e^p as float (issue 16);
                                        // 5: model.anisotropy_metric (GᵀG per particle);
@@ -32,6 +32,7 @@ constexpr std::uint32_t kVersion = 16;  // 2: embedded.held_deformation, embedde
                                        // 14: openable_faces, state.open_faces (crack faces for colliders)
                                        // 15: state.collider_contact holds three colliders (48 B)
                                        // 16: embedded.deformation_origin
+                                       // 17: embedded.deformation_origin_velocity
 
 // Not saved: worker-slot scratch (sized by the thread count, so a resume on another thread count keeps
 // its own) and the projectiles' per-block contact lists (refilled by every step before any reads).
