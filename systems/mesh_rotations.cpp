@@ -101,7 +101,10 @@ std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only
         cv[0][l] = v[j], cv[1][l] = v[j + 1], cv[2][l] = v[j + 2];
       }
   };
-  auto lane = [=, &k6, &n9, &r9, &m10, &count, &g_p, &cp, &vol, &cv, &pc, &pf](std::size_t, int l, std::uint64_t is_alive) {
+  // Always inlined: grown by the moments and the residual weight, GCC 12 stopped inlining it, and the
+  // lane loop then ran scalar (the per-frame vertex pass took 4× as long).
+  auto lane = [=, &k6, &n9, &r9, &m10, &count, &g_p, &cp, &vol, &cv, &pc, &pf](
+                  std::size_t, int l, std::uint64_t is_alive) __attribute__((always_inline)) {
     const double dx[3] = {cp.xx[l] - o.xx, cp.xy[l] - o.xy, cp.xz[l] - o.xz};
     const double r = reference_length(dx[0], dx[1], dx[2]);
     const double use = static_cast<double>((is_alive | keep_dead) != 0);
