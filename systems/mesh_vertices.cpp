@@ -68,6 +68,45 @@ namespace {
 constexpr double kFallbackWeight = 1e-3;
 constexpr std::uint32_t kRemnantBonds = 8;
 
+// The mass-weighted least-squares affine map of a set of particles, y ≈ ȳ + F (x − x̄) with F = A S⁻¹
+// (and v ≈ v̄ + Ḟ (x − x̄), Ḟ = Ȧ S⁻¹), for the mesh ring's fit and the small render components.
+// `for_each(f)` calls f(t) for every member in a fixed order, twice (the centres, then the moments
+// about them); a member visited k times weighs k times its mass.
+struct ParticleSetFit {
+  double mass = 0.0;
+  std::uint32_t count = 0;  // visits
+  Vec3 xbar = Vec3::Zero(), ybar = Vec3::Zero(), vbar = Vec3::Zero();
+  Mat3 S = Mat3::Zero();     // Σ m (x − x̄)(x − x̄)ᵀ
+  Mat3 A = Mat3::Zero();     // Σ m (y − ȳ)(x − x̄)ᵀ
+  Mat3 Adot = Mat3::Zero();  // Σ m (v − v̄)(x − x̄)ᵀ
+};
+template <class ForEach>
+ParticleSetFit particle_set_fit(const WorldState& w, ForEach&& for_each) {
+  const auto& x = w.particles.reference_position;
+  const auto& y = w.particles.position;
+  const auto& vel = w.particles.velocity;
+  const auto& mass = w.particles.mass;
+  ParticleSetFit fit;
+  for_each([&](std::uint32_t t) {
+    fit.mass += mass[t];
+    fit.xbar += mass[t] * x[t];
+    fit.ybar += mass[t] * y[t];
+    fit.vbar += mass[t] * vel[t];
+    ++fit.count;
+  });
+  if (!(fit.mass > 0.0)) return fit;
+  fit.xbar /= fit.mass;
+  fit.ybar /= fit.mass;
+  fit.vbar /= fit.mass;
+  for_each([&](std::uint32_t t) {
+    const Vec3 d = x[t] - fit.xbar;
+    fit.S += mass[t] * d * d.transpose();
+    fit.A += mass[t] * (y[t] - fit.ybar) * d.transpose();
+    fit.Adot += mass[t] * (vel[t] - fit.vbar) * d.transpose();
+  });
+  return fit;
+}
+
 // The mesh ring's fit, for a particle whose own bonds cannot give F_p (a remnant family, or too few
 // bonds): the least-squares affine map of p and the particles of the tets that share a vertex with p's
 // tet in the current (split) mesh (each counted once per shared vertex, weighed by its mass; p itself
@@ -84,47 +123,23 @@ constexpr std::uint32_t kRemnantBonds = 8;
 bool ring_fit(WorldState& w, std::size_t p) {
   EmbeddedMesh& e = w.embedded;
   if (p >= e.tets.size()) return false;
-  const auto& x = w.particles.reference_position;
-  const auto& y = w.particles.position;
-  const auto& vel = w.particles.velocity;
-  const auto& mass = w.particles.mass;
-  // Calls f(t) for p and for every tet of the ring, once per vertex it shares with p's tet.
-  auto for_ring = [&](auto&& f) {
+  // p, and every tet of the ring once per vertex it shares with p's tet.
+  const ParticleSetFit fit = particle_set_fit(w, [&](auto&& f) {
     f(static_cast<std::uint32_t>(p));
     for (const std::uint32_t v : e.tets[p])
       for_each_holding_tet(e, v, [&](std::uint32_t t, std::uint32_t) {
         if (t != p) f(t);
       });
-  };
-  double M = 0.0;
-  Vec3 xbar = Vec3::Zero(), ybar = Vec3::Zero(), vbar = Vec3::Zero();
-  std::uint32_t count = 0;
-  for_ring([&](std::uint32_t t) {
-    M += mass[t];
-    xbar += mass[t] * x[t];
-    ybar += mass[t] * y[t];
-    vbar += mass[t] * vel[t];
-    ++count;
   });
-  if (!(M > 0.0)) return false;
-  xbar /= M;
-  ybar /= M;
-  vbar /= M;
-  Mat3 S = Mat3::Zero(), A = Mat3::Zero(), Adot = Mat3::Zero();
-  for_ring([&](std::uint32_t t) {
-    const Vec3 d = x[t] - xbar;
-    S += mass[t] * d * d.transpose();
-    A += mass[t] * (y[t] - ybar) * d.transpose();
-    Adot += mass[t] * (vel[t] - vbar) * d.transpose();
-  });
-  if (!family_fits(S, count - 1)) return false;  // p and at least 4 more
-  const Mat3 Sinv = S.inverse();
-  const Mat3 F = A * Sinv;
+  if (!(fit.mass > 0.0) || !family_fits(fit.S, fit.count - 1)) return false;  // p and at least 4 more
+  const Mat3 Sinv = fit.S.inverse();
+  const Mat3 F = fit.A * Sinv;
   if (!deformation_conditioned(F)) return false;
+  const Vec3 d = w.particles.reference_position[p] - fit.xbar;
   e.deformation[p] = F;
-  e.deformation_rate[p] = Adot * Sinv;
-  e.deformation_origin[p] = ybar + F * (x[p] - xbar);
-  e.deformation_origin_velocity[p] = vbar + e.deformation_rate[p] * (x[p] - xbar);
+  e.deformation_rate[p] = fit.Adot * Sinv;
+  e.deformation_origin[p] = fit.ybar + F * d;
+  e.deformation_origin_velocity[p] = fit.vbar + e.deformation_rate[p] * d;
   e.deformation_fitted[p] = 1;
   return true;
 }
@@ -257,24 +272,16 @@ void rigid_small_components(WorldState& w) {
   for (std::size_t a = 0; a < small.size();) {
     std::size_t b = a;
     while (b < small.size() && small[b].first == small[a].first) ++b;
-    double M = 0.0;
-    Vec3 xbar = Vec3::Zero(), ybar = Vec3::Zero();
-    for (std::size_t k = a; k < b; ++k) {
-      const std::uint32_t t = small[k].second;
-      M += mass[t];
-      xbar += mass[t] * x[t];
-      ybar += mass[t] * y[t];
-    }
-    if (M > 0.0) {
-      xbar /= M;
-      ybar /= M;
-      Mat3 A = Mat3::Zero(), S = Mat3::Zero(), held = Mat3::Zero();
-      for (std::size_t k = a; k < b; ++k) {
-        const std::uint32_t t = small[k].second;
-        A += mass[t] * (y[t] - ybar) * (x[t] - xbar).transpose();
-        S += mass[t] * (x[t] - xbar) * (x[t] - xbar).transpose();
-        held += mass[t] * polar_rotation(e.deformation[t]);
-      }
+    const ParticleSetFit fit = particle_set_fit(w, [&](auto&& f) {
+      for (std::size_t k = a; k < b; ++k) f(small[k].second);
+    });
+    if (fit.mass > 0.0) {
+      const double M = fit.mass;
+      Vec3 xbar = fit.xbar, ybar = fit.ybar;
+      const Mat3& A = fit.A;
+      const Mat3& S = fit.S;
+      Mat3 held = Mat3::Zero();
+      for (std::size_t k = a; k < b; ++k) held += mass[small[k].second] * polar_rotation(e.deformation[small[k].second]);
       const double spread = S.trace();
       // One tet: its own rotation, its own centre (round-off in x̄ must not make A a random rank-1 term).
       const bool single = b - a == 1;
