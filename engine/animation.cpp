@@ -5,10 +5,10 @@
 #include <stdexcept>
 #include <string>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
 #include "components/world_state.hpp"
+#include "systems/systems.hpp"
 
 namespace perifx {
 namespace {
@@ -32,21 +32,6 @@ Mat3 best_rotation(const Mat3& h) {
   return v * d * u.transpose();
 }
 
-// I⁻¹ L through the eigen-decomposition, leaving out directions with (nearly) no inertia (a rod or
-// a single particle cannot tell its spin about its own axis).
-Vec3 angular_velocity(const Mat3& inertia, const Vec3& momentum) {
-  Eigen::SelfAdjointEigenSolver<Mat3> eig(inertia);
-  const Vec3 lambda = eig.eigenvalues();
-  const double largest = lambda.cwiseAbs().maxCoeff();
-  if (!(largest > 0.0)) return Vec3::Zero();
-  Vec3 w = Vec3::Zero();
-  for (int k = 0; k < 3; ++k)
-    if (lambda[k] > 1e-9 * largest) {
-      const Vec3 e = eig.eigenvectors().col(k);
-      w += e * (e.dot(momentum) / lambda[k]);
-    }
-  return w;
-}
 
 template <class T>
 const T* field_data(const World& world, const char* name) {
@@ -106,7 +91,7 @@ void record_animation_frame(AnimationHistory& h, const World& world, std::uint64
     p.rotation = best_rotation(s.cross);
     p.translation = p.center - p.rotation * (s.mx / s.mass);
     p.velocity = s.mv / s.mass;
-    p.angular_velocity = angular_velocity(s.inertia, s.momentum);
+    p.angular_velocity = systems::angular_velocity(s.inertia, s.momentum);
     out.pieces.push_back(p);
   }
 

@@ -27,6 +27,8 @@
 // Reads:  position, bond_alive, damage (broken_bonds), mesh.   Writes: mesh (held_deformation, held_tracked).
 #include <algorithm>
 
+#include <Eigen/Eigenvalues>
+
 #include "bond_gather.hpp"
 #include "bond_rules.hpp"
 #include "parallel.hpp"
@@ -37,6 +39,20 @@ namespace perifx::systems {
 bool family_fits(const Mat3& K, std::uint32_t alive) {
   // K's scale is Σ ω V |ξ|²; the condition test is scale-free (‖K‖²‖K⁻¹‖² ≤ 1e8 with ‖I‖² = 3).
   return alive >= 4 && K.determinant() > 0.0 && K.squaredNorm() * K.inverse().squaredNorm() <= 1e8;
+}
+
+Vec3 angular_velocity(const Mat3& inertia, const Vec3& momentum) {
+  Eigen::SelfAdjointEigenSolver<Mat3> eig(inertia);
+  const Vec3 lambda = eig.eigenvalues();
+  const double largest = lambda.cwiseAbs().maxCoeff();
+  if (!(largest > 0.0)) return Vec3::Zero();
+  Vec3 w = Vec3::Zero();
+  for (int k = 0; k < 3; ++k)
+    if (lambda[k] > 1e-9 * largest) {
+      const Vec3 e = eig.eigenvectors().col(k);
+      w += e * (e.dot(momentum) / lambda[k]);
+    }
+  return w;
 }
 
 bool deformation_conditioned(const Mat3& F) {

@@ -242,13 +242,18 @@ void particle_deformation(WorldState& w, std::size_t p) {
 // which keeps every tet positive. (Until 2026-12-06 a fit with det > 0 that failed the test had its
 // principal stretches clamped to [½, 2]; in a sliver of debris drawn out 4× and thinned to 0.3× the
 // clamped map pushed a vertex a horizon away from every particle of its piece: showcase, check-surface.)
-// Velocities keep the per-vertex value. Serial, in tet order: deterministic.
+// Velocities go with the placement: the affine map's v̄ + Ḟ (X_v − x̄), Ḟ = Ȧ S⁻¹, or the rigid
+// body's v̄ + ω × (x_v − ȳ), ω = I⁻¹ L of the particles about ȳ (angular_velocity); a single tet keeps
+// the vertex pass's values. Until 2026-12-06 they kept the vertex pass's values, which for debris of
+// fallback rotations (Ḟ = 0) carried the translation but not the spin. Serial, in tet order:
+// deterministic.
 constexpr std::uint32_t kRigidComponentTets = 8;
 
 void rigid_small_components(WorldState& w) {
   EmbeddedMesh& e = w.embedded;
   const auto& x = w.particles.reference_position;
   const auto& y = w.particles.position;
+  const auto& vel = w.particles.velocity;
   const auto& mass = w.particles.mass;
   const std::size_t nt = e.tets.size();
   constexpr std::uint32_t kNone = 0xFFFFFFFFu;
@@ -301,15 +306,37 @@ void rigid_small_components(WorldState& w) {
       // it is bounded as F_p is; else the rigid placement. One map with det F > 0 cannot turn a tet
       // inside out, where mixing the particles' own predictions at shared vertices can.
       Mat3 F = R;
+      bool affine = false;
       if (residual > radius && b - a >= 4 && family_fits(S, static_cast<std::uint32_t>(b - a))) {
         const Mat3 fitted = A * S.inverse();
-        if (deformation_conditioned(fitted)) F = fitted;
+        if (deformation_conditioned(fitted)) F = fitted, affine = true;
+      }
+      // Vertex velocities that go with the placement (motion blur of spinning debris): the affine
+      // map's, v̄ + Ḟ (X − x̄) with Ḟ = Ȧ S⁻¹, or the rigid body's, v̄ + ω × (x_v − ȳ) with ω = I⁻¹ L of
+      // the particles about ȳ. A single tet keeps its own (v_t + Ḟ_t (X − x_t), from the vertex pass):
+      // one particle cannot tell its spin.
+      Mat3 rate = Mat3::Zero();
+      Vec3 spin = Vec3::Zero();
+      if (affine) {
+        rate = fit.Adot * S.inverse();
+      } else if (!single) {
+        Mat3 inertia = Mat3::Zero();
+        Vec3 momentum = Vec3::Zero();
+        for (std::size_t k = a; k < b; ++k) {
+          const std::uint32_t t = small[k].second;
+          const Vec3 r = y[t] - ybar;
+          inertia += mass[t] * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
+          momentum += mass[t] * r.cross(vel[t] - fit.vbar);
+        }
+        spin = angular_velocity(inertia, momentum);
       }
       for (std::size_t k = a; k < b; ++k)
         for (std::uint32_t v : e.tets[small[k].second]) {
           if (seen[v] == small[a].first) continue;
           seen[v] = small[a].first;
           e.vertices[v] = ybar + F * (e.reference_vertices[v] - xbar);
+          if (affine) e.vertex_velocity[v] = fit.vbar + rate * (e.reference_vertices[v] - xbar);
+          else if (!single) e.vertex_velocity[v] = fit.vbar + spin.cross(e.vertices[v] - ybar);
         }
     }
     a = b;

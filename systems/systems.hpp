@@ -168,6 +168,10 @@ void compute_fem_force(const WorldState& world, const std::vector<Vec3>& y, std:
                        std::vector<Vec3>& force);
 double fem_elastic_energy(const WorldState& world, const std::vector<Vec3>& y);
 Mat3 polar_rotation(const Mat3& F);  // rotation factor R of F = R S, det R = +1
+// I⁻¹ L (rad/s) for a set of particles' inertia I = Σ m (|r|² 1 − r rᵀ) and angular momentum
+// L = Σ m r × (v − v̄) about their centre, leaving out directions with (nearly) no inertia (a rod or a
+// single particle cannot tell its spin about its own axis): 0 where I vanishes.
+Vec3 angular_velocity(const Mat3& inertia, const Vec3& momentum);
 
 // ---- per-step systems ----
 SystemDecl kick_begin_system(WorldState& world);

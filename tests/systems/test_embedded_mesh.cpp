@@ -617,7 +617,7 @@ TEST_CASE("embedded mesh: a vertex never leaves its group, single-tet pieces kee
   CHECK(inverted == 0);
 }
 
-TEST_CASE("embedded mesh: a small piece whose particles moved apart follows its best-fit affine map, no tet inverted") {
+TEST_CASE("embedded mesh: a small piece whose particles moved apart follows its best-fit affine map, no tet inverted; its vertex velocities follow its motion, spin included") {
   auto sc = test::box_scene(Vec3(0.2, 0.1, 0.1), 0.025, kKappa, kMu);
   World world(sc);
   WorldState& w = world.state_mutable();
@@ -644,23 +644,61 @@ TEST_CASE("embedded mesh: a small piece whose particles moved apart follows its 
   const Mat3 F = Eigen::AngleAxisd(0.7, Vec3(1, -1, 2).normalized()).toRotationMatrix() * A;
   REQUIRE(systems::deformation_conditioned(F));
   const Vec3 c = x[piece[0]], shift(0.3, -0.1, 0.05);
-  for (std::size_t i = 0; i < x.size(); ++i)
-    w.particles.position[i] = in_piece(static_cast<std::uint32_t>(i)) ? Vec3(c + F * (x[i] - c) + shift)
-                                                                       : Vec3(x[i] + 0.01 * Vec3::Ones());
+  // Velocities: an affine field v = u + L (x − c) over the piece.
+  Mat3 L;
+  L << 0.5, -3.0, 1.0, 3.0, 0.2, -2.0, -1.0, 2.0, -0.4;
+  const Vec3 u(1.0, -2.0, 0.5);
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const bool mine = in_piece(static_cast<std::uint32_t>(i));
+    w.particles.position[i] = mine ? Vec3(c + F * (x[i] - c) + shift) : Vec3(x[i] + 0.01 * Vec3::Ones());
+    w.particles.velocity[i] = mine ? Vec3(u + L * (x[i] - c)) : Vec3::Zero();
+  }
   run_mesh_systems(w);
-  double err = 0.0, scale = 0.0;
+  double err = 0.0, scale = 0.0, verr = 0.0;
   std::size_t inverted = 0;
   for (const std::uint32_t t : piece) {
     const auto& tet = e.tets[t];
     for (auto v : tet) {
       err = std::max(err, (e.vertices[v] - (c + F * (e.reference_vertices[v] - c) + shift)).norm());
+      verr = std::max(verr, (e.vertex_velocity[v] - (u + L * (e.reference_vertices[v] - c))).norm());
       scale = std::max(scale, (e.reference_vertices[v] - c).norm());
     }
     inverted += inverted_tet(e, t);
   }
-  MESSAGE("6-tet piece under a stretched affine map: worst vertex error / piece size " << err / scale << ", inverted " << inverted);
+  MESSAGE("6-tet piece under a stretched affine map: worst vertex error / piece size " << err / scale << ", inverted "
+                                                                                       << inverted << "; velocity error " << verr);
   CHECK(err / scale < 1e-12);
   CHECK(inverted == 0);
+  CHECK(verr < 1e-12 * (u.norm() + L.norm() * scale));
+
+  // Three of its tets alone, turned and spinning as a rigid body (v = V + ω × (y − ȳ)): three particles
+  // span no volume, so neither a ring fit nor an affine map exists and each particle is a fallback
+  // rotation (Ḟ = 0); the piece is placed rigidly and its vertices must move with the spin (the vertex
+  // pass alone gave each vertex its tets' particle velocities: the translation and a share of the spin).
+  piece.resize(3);
+  break_bonds(w, [&](std::uint32_t i, std::uint32_t j) { return !(in_piece(i) && in_piece(j)); });
+  const Mat3 R = Eigen::AngleAxisd(1.1, Vec3(2, 1, -1).normalized()).toRotationMatrix();
+  const Vec3 V(0.4, 1.5, -0.7), omega(12.0, -5.0, 30.0);
+  Vec3 centre = Vec3::Zero();
+  double mass = 0.0;
+  for (const std::uint32_t t : piece) centre += w.particles.mass[t] * x[t], mass += w.particles.mass[t];
+  centre /= mass;
+  for (std::size_t i = 0; i < x.size(); ++i) w.particles.position[i] = x[i] + 0.01 * Vec3::Ones();
+  for (const std::uint32_t t : piece) {
+    w.particles.position[t] = centre + R * (x[t] - centre) + shift;
+    w.particles.velocity[t] = V + omega.cross(w.particles.position[t] - (centre + shift));
+  }
+  run_mesh_systems(w);
+  double spin_err = 0.0, spin_scale = 0.0;
+  for (const std::uint32_t t : piece) {
+    CHECK(e.deformation_fitted[t] == 0);
+    for (auto v : e.tets[t]) {
+      spin_err = std::max(spin_err, (e.vertex_velocity[v] - (V + omega.cross(e.vertices[v] - (centre + shift)))).norm());
+      spin_scale = std::max(spin_scale, omega.norm() * (e.vertices[v] - (centre + shift)).norm());
+    }
+  }
+  MESSAGE("3-tet piece spinning at " << omega.norm() << " rad/s: worst vertex velocity error / spin speed " << spin_err / spin_scale);
+  CHECK(spin_err < 1e-12 * (V.norm() + spin_scale));
 }
 
 TEST_CASE("embedded mesh: a slab of remnant families under a large stretch follows it exactly (the mesh ring's fit)") {
