@@ -124,13 +124,13 @@ std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only
     const double dx[3] = {cp.xx[l] - o.xx, cp.xy[l] - o.xy, cp.xz[l] - o.xz};
     const double r = reference_length(dx[0], dx[1], dx[2]);
     const double use = static_cast<double>((is_alive | keep_dead) != 0);
+    [[maybe_unused]] const double dy[3] = {cp.yx[l] - o.yx, cp.yy[l] - o.yy, cp.yz[l] - o.yz};  // η (kN)
     double weight =
         vol[l] * ramped_horizon(delta, r, ramp) / weighted_length<kAnisotropic>(g_p, r, dx[0], dx[1], dx[2]) * use;
     if constexpr (kRobust) {
       double res2 = 0.0;
       for (int a = 0; a < 3; ++a) {
-        const double dya = a == 0 ? cp.yx[l] - o.yx : a == 1 ? cp.yy[l] - o.yy : cp.yz[l] - o.yz;
-        const double res = dya - pc[a] - (pf[3 * a] * dx[0] + pf[3 * a + 1] * dx[1] + pf[3 * a + 2] * dx[2]);
+        const double res = dy[a] - pc[a] - (pf[3 * a] * dx[0] + pf[3 * a + 1] * dx[1] + pf[3 * a + 2] * dx[2]);
         res2 += res * res;
       }
       const double scaled = s2 * (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]);
@@ -140,7 +140,6 @@ std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only
     k6[0][l] += wx[0] * dx[0], k6[1][l] += wx[1] * dx[1], k6[2][l] += wx[2] * dx[2];
     k6[3][l] += wx[0] * dx[1], k6[4][l] += wx[0] * dx[2], k6[5][l] += wx[1] * dx[2];
     if constexpr (kN) {
-      const double dy[3] = {cp.yx[l] - o.yx, cp.yy[l] - o.yy, cp.yz[l] - o.yz};
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) n9[3 * a + b][l] += dy[a] * wx[b];
     }
@@ -148,7 +147,6 @@ std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only
       const double dv[3] = {cv[0][l] - vx, cv[1][l] - vy, cv[2][l] - vz};
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b) r9[3 * a + b][l] += dv[a] * wx[b];
-      const double dy[3] = {cp.yx[l] - o.yx, cp.yy[l] - o.yy, cp.yz[l] - o.yz};
       m10[0][l] += weight;
       for (int a = 0; a < 3; ++a) {
         m10[1 + a][l] += wx[a];
