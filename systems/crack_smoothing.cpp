@@ -20,12 +20,16 @@
 //   - vertices on the original outer surface move only within their flat face (or along their
 //     straight edge), as in the jitter of the structured mesher (engine/geometry/jitter.cpp);
 //   - each step is backed off per vertex (halved, at last zeroed) until every tet around the moved
-//     vertices keeps at least kMinVolumeFraction of its original volume (so stays positively oriented).
+//     vertices keeps at least kMinVolumeFraction of its original volume (so stays positively oriented)
+//     and every moved vertex stays within kReach δ of the particle of each tet it belongs to (Laplacian
+//     smoothing shrinks a crack network; without this a lone debris tet's vertex was drawn from 0.54 δ
+//     to 1.07 δ of its particle in the full glass walls).
 // It starts every time from the original vertices (WorldState::mesh), so the result depends only on
 // the current crack set, not on when the frames were written; serial, in vertex order: deterministic
 // and the same for any thread count. It allocates its work arrays per call (once per output frame),
 // never inside a step.
-// Reads: mesh (original vertices and tets), embedded (pair states, origin, incidence, neighbors).
+// Reads: mesh (original vertices and tets), embedded (pair states, origin, incidence, neighbors),
+// particles.reference_position, model.horizon.
 // Writes: embedded.reference_vertices.
 #include <algorithm>
 #include <cmath>
@@ -39,6 +43,11 @@ namespace {
 constexpr double kLambda = 0.5;
 // Every tet around a moved vertex keeps at least this fraction of its original volume.
 constexpr double kMinVolumeFraction = 0.2;
+// No vertex ends farther than this fraction of δ from the particle of a tet it belongs to (or than it
+// was, if the mesher put it farther). A lone debris tet is drawn rigidly from its one particle, and
+// check-surface calls a vertex farther than δ from every particle of its piece a spike; the 0.1 δ
+// margin is for the stretch of a fitted piece.
+constexpr double kReach = 0.9;
 constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 
 double tet_volume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
@@ -171,6 +180,14 @@ std::size_t smooth_crack_faces(WorldState& w, int iterations) {
         bool bad = false;
         for (std::size_t j = 0; j < check_tets.size(); ++j) {
           const auto& t = tets0[check_tets[j]];
+          // Reach: within the larger of kReach δ and the vertex's original distance.
+          const Vec3& xp = w.particles.reference_position[check_tets[j]];
+          const double reach = kReach * w.model.horizon[check_tets[j]];
+          for (auto v : t) {
+            if (local[v] < 0 || step[static_cast<std::size_t>(local[v])] == 0.0) continue;
+            const double d = (Q[static_cast<std::size_t>(local[v])] - xp).squaredNorm();
+            if (d > reach * reach && d > (X0[v] - xp).squaredNorm()) fail[static_cast<std::size_t>(local[v])] = 1, bad = true;
+          }
           if (tet_volume(pos(Q, t[0]), pos(Q, t[1]), pos(Q, t[2]), pos(Q, t[3])) >= kMinVolumeFraction * volume0[j]) continue;
           for (auto v : t)
             if (local[v] >= 0 && step[static_cast<std::size_t>(local[v])] > 0.0) fail[static_cast<std::size_t>(local[v])] = 1, bad = true;
