@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include <Eigen/SVD>
+#include <Eigen/Geometry>
 
 #include "components/world_state.hpp"
 #include "systems/systems.hpp"
@@ -22,16 +22,6 @@ struct Sums {
   Vec3 momentum = Vec3::Zero();        // Σ m (y − ȳ) × (v − v̄)
   Mat3 inertia = Mat3::Zero();         // Σ m (|r|² 1 − r rᵀ), r = y − ȳ
 };
-
-// The proper rotation R minimising Σ m |R (X − X̄) − (y − ȳ)|² for the cross-covariance H.
-Mat3 best_rotation(const Mat3& h) {
-  Eigen::JacobiSVD<Mat3> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Mat3 u = svd.matrixU(), v = svd.matrixV();
-  Mat3 d = Mat3::Identity();
-  if ((v * u.transpose()).determinant() < 0) d(2, 2) = -1.0;
-  return v * d * u.transpose();
-}
-
 
 template <class T>
 const T* field_data(const World& world, const char* name) {
@@ -88,7 +78,8 @@ void record_animation_frame(AnimationHistory& h, const World& world, std::uint64
     p.particles = s.particles;
     p.mass = s.mass;
     p.center = s.my / s.mass;
-    p.rotation = best_rotation(s.cross);
+    // The proper rotation minimising Σ m |R (X − X̄) − (y − ȳ)|²: the rotation factor of Σ m (y − ȳ)(X − X̄)ᵀ.
+    p.rotation = systems::polar_rotation(s.cross.transpose());
     p.translation = p.center - p.rotation * (s.mx / s.mass);
     p.velocity = s.mv / s.mass;
     p.angular_velocity = systems::angular_velocity(s.inertia, s.momentum);
