@@ -51,9 +51,13 @@ void element_strain(const WorldState& w, const std::vector<Vec3>& y, std::size_t
 }  // namespace
 
 Mat3 polar_rotation(const Mat3& F) {
+  // Newton's iteration needs F well inside the invertible matrices: det F against the cube of F's
+  // RMS singular value (a scale det F itself cannot give: with det's own cube root the test passed any
+  // det > 0, and a rank-deficient F whose round-off left det ~1e-30 > 0 iterated to NaN: a two-particle
+  // piece's cross-covariance in the glTF animation). Singular, inverted or flat F go through the SVD.
   const double det = F.determinant();
-  const double scale = std::cbrt(std::abs(det));
-  if (!(det > 1e-6 * scale * scale * scale) || !(scale > 0.0)) return rotation_by_svd(F);
+  const double scale2 = F.squaredNorm() / 3.0;
+  if (!(det > 1e-6 * scale2 * std::sqrt(scale2))) return rotation_by_svd(F);
   Mat3 r = F;
   for (int it = 0; it < 30; ++it) {
     const Mat3 inv_t = r.inverse().transpose();
