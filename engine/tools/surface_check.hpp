@@ -2,7 +2,10 @@
 // a fractured solid. Per frame, on the surface (surface.NNNN.ply, else .obj) and particle
 // (particles.NNNN.vtu/.ply) files of a run directory, read through io/run_dir.hpp:
 //   far        surface vertices farther than one horizon δ from every particle of their own piece
-//              (piece: the `fragment` of the vertex's triangles and the particles' `fragment_id`);
+//              (piece: the `fragment` of the vertex's triangles and the particles' `fragment_id`)
+//              and, where the file has reference positions, farther from them than at rest (the
+//              vertex's reference position against the piece's particles at frame 0) by over 0.1 δ:
+//              a mesher's elongated tet can put a vertex beyond δ at rest;
 //   inverted   closed shells (edge-connected triangle sets, every edge used twice) whose signed
 //              volume is negative, unless a positive closed shell of the same piece encloses them
 //              (bounding boxes): those bound a cavity or a closed internal crack and are counted

@@ -107,6 +107,28 @@ TEST_CASE("check-surface: a short fracture run has no far, inverted, open or str
     CHECK(bad.frames.back().far_vertices >= 1);
     CHECK(bad.issues() > 0);
   }
+  // A vertex that lies beyond δ of its piece's particles at rest is not a spike while it keeps that
+  // distance: with δ given as a fifth of the cell, most vertices of the unmoved frame 0 are beyond it
+  // (the δ test alone counted them), and none is farther than at rest. The PLY keeps the reference
+  // positions, so a vertex moved 1 m is still far.
+  SUBCASE("a vertex is far only beyond δ and beyond its distance at rest") {
+    SurfaceCheckOptions small;
+    small.horizon = 0.2 * 0.004;
+    small.frames = 1;
+    small.details = true;
+    const auto rest = check_run_surfaces(dir, small);
+    REQUIRE(rest.frames.size() == 1);
+    CHECK(rest.frames[0].far_vertices == 0);
+    const io::FrameFiles last = io::scan_run_directory(dir).frames.back();
+    SurfaceMesh m = surface_mesh_of(io::read_surface_frame(last.surface));
+    REQUIRE(m.reference.size() == m.vertices.size());
+    const std::uint32_t moved = m.triangles[0][0];
+    for (std::uint32_t v = 0; v < m.vertices.size(); ++v)  // every copy of the vertex (same source)
+      if (m.source[v] == m.source[moved]) m.vertices[v] += Vec3(1.0, 0, 0);
+    io::write_ply_surface(last.surface, m);
+    const auto bad = check_run_surfaces(dir);
+    CHECK(bad.frames.back().far_vertices == 1);
+  }
   // A triangle edge stretched past 3× while the particles are not is counted, and --details gives the
   // edge's length at rest and now: vertex a of the first triangle moved to b + 3.5 (a − b).
   SUBCASE("a stretched triangle is reported with its edge's lengths") {
