@@ -718,7 +718,7 @@ int cli_main(int argc, char** argv, const perifx::distributed::MpiSession& mpi) 
   compare->add_option("RUN_B", a.second, "compared run directory")->required();
 
   CLI::App* check_surface = app.add_subcommand(
-      "check-surface", "per frame: surface vertices farther than a horizon from their piece, inverted closed shells, "
+      "check-surface", "per frame: surface vertices farther than a horizon from their piece (and than at rest), inverted closed shells, "
                        "open edges, triangles stretched > 3x where the particles are not, longest edge; exit 2 when a "
                        "count is non-zero");
   check_surface->add_option("RUN_DIR", a.scene, "run directory")->required();
