@@ -127,6 +127,11 @@ void write_glb(const std::filesystem::path& file, const SurfaceMesh& s,
     if (tracks.size() != pieces.size()) detail::fail_write(file, std::to_string(tracks.size()) + " tracks for " + std::to_string(pieces.size()) + " pieces");
     for (std::size_t k = 1; k < times.size(); ++k)
       if (!(times[k] > times[k - 1])) detail::fail_write(file, "key times do not increase at key " + std::to_string(k));
+    for (const RigidPieceTrack& track : tracks)
+      for (std::size_t k = 0; k < track.translation.size() && k < track.rotation.size(); ++k)
+        if (!track.translation[k].allFinite() || !track.rotation[k].allFinite())
+          detail::fail_write(file, "piece " + std::to_string(track.id) + "'s pose at key " + std::to_string(k) +
+                                       " is not finite (nothing written)");
   }
 
   Builder b;

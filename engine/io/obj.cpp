@@ -99,6 +99,7 @@ void write_obj_cache(const fs::path& target, const SurfaceMesh& surface, const s
     detail::fail_write(target, std::to_string(positions.size()) + " coordinates and " + std::to_string(uv.size()) +
                                    " UV triangles for " + std::to_string(surface.vertices.size()) + " vertices and " +
                                    std::to_string(surface.triangles.size()) + " triangles");
+  detail::check_finite(target, positions.data(), positions.size(), "vertex");
   std::string text;
   text.reserve(40 * surface.vertices.size() + 60 * surface.triangles.size() + 128);
   text += "# perifx point-cache surface (positions per frame: animation.pc2)\nmtllib " + mtl_file + "\n";

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "io/atomic.hpp"
+#include "io/write_checks.hpp"
 
 namespace perifx::io {
 
@@ -17,6 +18,8 @@ void write_pc2(const std::filesystem::path& file, const std::vector<std::vector<
       throw IoError("cannot write '" + file.string() + "': frame " + std::to_string(k) + " has " +
                     std::to_string(frames[k].size()) + " coordinates, expected " + std::to_string(values) +
                     " (3 per vertex, the same every frame)");
+  for (std::size_t k = 0; k < frames.size(); ++k)
+    detail::check_finite(file, frames[k].data(), frames[k].size(), "frame " + std::to_string(k) + ": vertex");
   write_atomic(file, [&](std::ostream& os) {
     const char signature[12] = {'P', 'O', 'I', 'N', 'T', 'C', 'A', 'C', 'H', 'E', '2', '\0'};
     os.write(signature, sizeof signature);

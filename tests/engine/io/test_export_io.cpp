@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -65,6 +66,36 @@ TEST_CASE("PC2: signature, header and float samples as Blender's Mesh Cache read
   CHECK_THROWS_WITH_AS(perifx::io::write_pc2(dir / "b.pc2", {{1, 2, 3}, {1, 2}}),
                        doctest::Contains("frame 1 has 2 coordinates, expected 3"), perifx::io::IoError);
   CHECK_FALSE(fs::exists(dir / "b.pc2"));
+}
+
+TEST_CASE("the surface and animation writers refuse non-finite values and leave no file") {
+  // A NaN vertex, velocity, cached position or pose is a bug upstream (a degenerate fit or rotation);
+  // the writers name it and write nothing rather than a file the importers reject.
+  const fs::path dir = scratch("finite");
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  SurfaceMesh s = two_pieces();
+  s.vertices[5].y() = nan;
+  CHECK_THROWS_WITH_AS(perifx::io::write_obj_surface(dir / "a.obj", s, "a.mtl"),
+                       doctest::Contains("surface vertex 5 has a non-finite position or velocity"), perifx::io::IoError);
+  CHECK_FALSE(fs::exists(dir / "a.obj"));
+  s = two_pieces();
+  s.velocity[2].x() = std::numeric_limits<double>::infinity();
+  CHECK_THROWS_WITH_AS(perifx::io::write_obj_surface(dir / "b.obj", s, "b.mtl"),
+                       doctest::Contains("surface vertex 2 has a non-finite"), perifx::io::IoError);
+  CHECK_FALSE(fs::exists(dir / "b.obj"));
+  CHECK_THROWS_WITH_AS(perifx::io::write_pc2(dir / "a.pc2", {{1, 2, 3, 4, 5, 6}, {7, 8, 9, 10, float(nan), 12}}),
+                       doctest::Contains("frame 1: vertex 1 is not finite"), perifx::io::IoError);
+  CHECK_FALSE(fs::exists(dir / "a.pc2"));
+  s = two_pieces();
+  std::vector<std::array<std::array<double, 2>, 3>> uv(s.triangles.size());
+  std::vector<perifx::io::RigidPieceTrack> tracks(2);
+  tracks[0].id = 3, tracks[1].id = 9;
+  for (auto& t : tracks)
+    for (int k = 0; k < 2; ++k) t.translation.push_back(Vec3(k, 0, 0)), t.rotation.push_back(Eigen::Vector4d(0, 0, 0, 1));
+  tracks[1].rotation[1].x() = nan;
+  CHECK_THROWS_WITH_AS(perifx::io::write_glb(dir / "a.glb", s, uv, {0.0, 1.0}, tracks, "perifx test"),
+                       doctest::Contains("piece 9's pose at key 1 is not finite"), perifx::io::IoError);
+  CHECK_FALSE(fs::exists(dir / "a.glb"));
 }
 
 TEST_CASE("GLB: chunks, one node per piece, POSITION and key-time bounds, unit quaternions") {
