@@ -347,6 +347,11 @@ int cmd_info(const Args& a) {
             << mem.bytes_per_bond << " B each), mesh " << human_bytes(double(mem.mesh_bytes)) << ", contact "
             << human_bytes(double(mem.contact_bytes)) << ", other " << human_bytes(double(mem.other_bytes))
             << "; total " << human_bytes(double(mem.total_bytes)) << "\n";
+  // What the process holds now, and how much of it the kernel backs with 2 MiB pages (the step's arrays
+  // ask for them; the rest does through malloc when perifx restarted itself with glibc's hugetlb tunable).
+  if (const auto resident = perifx::setup::resident_memory(); resident.total >= 0.0)
+    std::cout << "resident         " << human_bytes(resident.total) << ", in huge pages "
+              << human_bytes(std::max(resident.huge_pages, 0.0)) << "\n";
   std::cout << "fields          ";
   for (const auto& f : perifx::World::field_catalog()) std::cout << " " << f.name << " [" << f.unit << "]";
   std::cout << "\n";
@@ -636,6 +641,7 @@ int cli_main(int argc, char** argv, const perifx::distributed::MpiSession& mpi);
 // behind would hang the others in their next exchange, so a distributed error stops the whole job
 // (MPI_Abort) with the command's exit code.
 int main(int argc, char** argv) {
+  perifx::setup::restart_with_huge_page_malloc(argv);  // first: it may restart the program (preflight.hpp)
   perifx::setup::release_freed_memory_promptly();  // the peak the preflight estimates (preflight.hpp)
   try {
     perifx::distributed::MpiSession mpi(argc, argv);

@@ -3,8 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <sstream>
+
+#if defined(__linux__)
+#include <unistd.h>
+#endif
 
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -101,6 +107,57 @@ void release_freed_memory_promptly() {
 #if defined(__GLIBC__)
   mallopt(M_MMAP_THRESHOLD, 1 << 20);  // also stops the dynamic trim threshold
 #endif
+}
+
+void restart_with_huge_page_malloc(char** argv) {
+#if defined(__GLIBC__) && defined(__linux__)
+  // The restarted process: the marker holds GLIBC_TUNABLES as the caller had it ("=value", or empty
+  // when it was unset). glibc has read the tunable already; the environment goes back as it was.
+  constexpr const char* kMarker = "PERIFX_GLIBC_TUNABLES_BEFORE";
+  if (const char* before = std::getenv(kMarker)) {
+    if (before[0] == '=') ::setenv("GLIBC_TUNABLES", before + 1, 1);
+    else ::unsetenv("GLIBC_TUNABLES");
+    ::unsetenv(kMarker);
+    return;
+  }
+  if (const char* opt = std::getenv("PERIFX_HUGE_PAGE_MALLOC"); opt && std::strcmp(opt, "0") == 0) return;
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  if (tunables && std::strstr(tunables, "glibc.malloc.hugetlb")) return;
+  {  // "always [madvise] never": huge pages only for memory that asks, which the tunable makes malloc do
+    std::ifstream mode("/sys/kernel/mm/transparent_hugepage/enabled");
+    std::string line;
+    if (!std::getline(mode, line) || line.find("[madvise]") == std::string::npos) return;
+  }
+  const std::string before = tunables ? "=" + std::string(tunables) : std::string();
+  const std::string now = (tunables && *tunables ? std::string(tunables) + ":" : std::string()) + "glibc.malloc.hugetlb=1";
+  ::setenv(kMarker, before.c_str(), 1);
+  ::setenv("GLIBC_TUNABLES", now.c_str(), 1);
+  ::execv("/proc/self/exe", argv);
+  // Not restarted (no /proc, exec refused): go on with the allocator as it is.
+  if (tunables) ::setenv("GLIBC_TUNABLES", tunables, 1);
+  else ::unsetenv("GLIBC_TUNABLES");
+  ::unsetenv(kMarker);
+#else
+  (void)argv;
+#endif
+}
+
+ResidentMemory resident_memory() {
+  ResidentMemory r;
+  std::ifstream in("/proc/self/smaps_rollup");
+  std::string line;
+  auto field = [&](const char* name, double& out) {
+    const std::size_t length = std::strlen(name);
+    if (line.compare(0, length, name) != 0) return;
+    std::istringstream fields(line.substr(length));
+    double kib = -1.0;
+    if (fields >> kib) out = kib * 1024.0;
+  };
+  while (std::getline(in, line)) {
+    field("Rss:", r.total);
+    field("AnonHugePages:", r.huge_pages);
+  }
+  return r;
 }
 
 double machine_bytes(double world_bytes, const RankPlacement& p) {

@@ -81,6 +81,27 @@ std::string format_bytes(double bytes);  // "1.2 GiB"
 // with the threshold fixed, which is what the estimates above assume. Process-wide, so the library
 // does not call it: `perifx` does at start; an embedder may.
 void release_freed_memory_promptly();
+// Restarts this program in place (execv of /proc/self/exe with the same arguments, so the same process
+// id) with glibc's malloc backing its large blocks with transparent huge pages (the tunable
+// glibc.malloc.hugetlb=1 in GLIBC_TUNABLES, read by glibc only at start). Debian's kernels give huge
+// pages only to memory that asks (transparent_hugepage "madvise" mode), and the step's bond and particle
+// arrays ask (systems/huge_pages.hpp), but set-up allocates hundreds of other arrays (meshes, adjacency,
+// loads, the embedded mesh, contact, the estimates' vectors) that fault in 4 KiB at a time; on the VMs
+// we measure on a page fault costs microseconds, and a 9e5-particle set-up took 6.1-7.6 s with them and
+// 4.5-5.6 s without (bench/README.md "Set-up and malloc's huge pages"). Does nothing when: not glibc or
+// not Linux; the kernel's THP mode is "never" (or unknown); GLIBC_TUNABLES already names
+// glibc.malloc.hugetlb (the user's choice stands); PERIFX_HUGE_PAGE_MALLOC=0 (opt-out); or this is the
+// restarted process (it then puts GLIBC_TUNABLES back as it was, so programs it starts, such as Blender
+// or POV-Ray, see the caller's environment). If execv fails the program goes on as it is.
+// Process-wide, so the library does not call it: `perifx` and `perifx_bench` do first thing in main;
+// an embedder may set the tunable itself (python/README.md).
+void restart_with_huge_page_malloc(char** argv);
+// This process's resident memory and the part of it in transparent huge pages (anonymous), bytes, from
+// /proc/self/smaps_rollup; both < 0 when unknown (not Linux).
+struct ResidentMemory {
+  double total = -1.0, huge_pages = -1.0;
+};
+ResidentMemory resident_memory();
 // Bytes per directed bond and per particle the world will hold for this scene (see the figures above).
 double bytes_per_bond(const scene::Scene& scene);
 double bytes_per_particle(const scene::Scene& scene);
