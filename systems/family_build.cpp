@@ -10,11 +10,14 @@
 // link, so the union is kept: i–j is bonded when either finds the other.
 // Distance rule: every particle of the same body within δ (found with spatial_grid.hpp).
 #include <oneapi/tbb/enumerable_thread_specific.h>
+#include <oneapi/tbb/parallel_pipeline.h>
+#include <oneapi/tbb/task_arena.h>
 
 #include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <span>
 #include <utility>
 
@@ -31,50 +34,87 @@ namespace {
 constexpr double kHorizonSlack = 1e-9;
 constexpr double kGridMargin = 1e-6;
 
-// Per-particle candidate lists (sorted), stored by chunks of kListChunk consecutive particles: chunk c
-// appends its particles' lists, in index order, to one vector of its own. One growing vector per
-// chunk instead of one per particle: at 9e5 particles the per-particle vectors cost about nine
-// hundred thousand allocations, each grown several times, and their page faults.
-constexpr std::size_t kListChunk = 8192;
+// Per-particle candidate lists (sorted), back to back in particle order in one array that becomes
+// the bond array (bonds.neighbor) once the one-sided finds are merged in (build_families). Writing the
+// lists there directly, rather than into lists of their own copied into a fresh bond array, touches
+// one array of ~4 B per bond instead of two: on the VMs we measure on, first-touching fresh memory
+// costs ~2 ns per byte in the kernel and the host (a quarter of a 1e6-particle set-up's CPU time).
 struct Lists {
-  std::vector<std::vector<std::uint32_t>> chunk;  // per chunk, its particles' lists back to back
-  std::vector<std::uint32_t> begin, count;        // per particle: where its list starts in its chunk, length
-  std::span<const std::uint32_t> operator[](std::size_t i) const {
-    return {chunk[i / kListChunk].data() + begin[i], count[i]};
-  }
+  std::vector<std::uint32_t> flat;   // every list, in particle order
+  std::vector<std::uint32_t> begin;  // n + 1: list i is flat[begin[i], begin[i + 1])
+  std::span<const std::uint32_t> operator[](std::size_t i) const { return {flat.data() + begin[i], begin[i + 1] - begin[i]}; }
 };
+constexpr std::size_t kListChunk = 8192;  // particles per pipeline item
 
-// Builds the lists in parallel by chunks (deterministic: each chunk's content depends on its particles
-// only). fill(i, out) appends particle i's list to out, sorted (increasing index). A chunk's
-// vector is reserved after its first kProbe particles from their mean list length (20 % headroom), so
-// it is not regrown, copied and faulted in again several times; the capacity never changes the content.
+// A fresh array of `capacity` elements advised for huge pages before anything touches it, holding a
+// copy of `v` (the rare growth when the estimate below was short).
+void regrow(std::vector<std::uint32_t>& v, std::size_t capacity) {
+  std::vector<std::uint32_t> fresh;
+  fresh.reserve(capacity);
+  advise_huge_pages(fresh.data(), capacity * sizeof(std::uint32_t));
+  fresh.insert(fresh.end(), v.begin(), v.end());
+  v.swap(fresh);
+}
+
+// Builds the lists with a oneTBB pipeline: chunks of kListChunk particles are searched in parallel
+// into per-token buffers (reused, so they stay in cache), and appended to `flat` in chunk order by a
+// serial stage. Deterministic: a chunk's lists depend on its particles only, and they land in order.
+// fill(i, out) appends particle i's list to out, sorted (increasing index). `flat` is reserved up
+// front from the lists of every 61st particle (1 % headroom), so it is not regrown and copied.
 template <class Fill>
 Lists build_lists(std::size_t n, Fill&& fill) {
-  constexpr std::size_t kProbe = 32;
   Lists lists;
-  lists.chunk.resize((n + kListChunk - 1) / kListChunk);
-  lists.begin.resize(n);
-  lists.count.resize(n);
-  parallel_for_each(lists.chunk.size(), [&](std::size_t c) {
-    auto& out = lists.chunk[c];
-    const std::size_t chunk_begin = c * kListChunk, chunk_end = std::min(n, (c + 1) * kListChunk);
-    for (std::size_t i = chunk_begin; i < chunk_end; ++i) {
-      if (i == chunk_begin + kProbe) {
-        // A fresh buffer, advised for huge pages before anything touches it (huge_pages.hpp): at
-        // 8,192 particles a chunk's lists are ~5 MB, and 4 KiB page faults on a VM cost more than the
-        // clearing (about 5 µs each; 0.6 CPU-s for the lists of a 9e5-particle world).
-        std::vector<std::uint32_t> fresh;
-        fresh.reserve(out.size() + (out.size() / kProbe + 1) * (chunk_end - i) * 6 / 5);
-        advise_huge_pages(fresh.data(), fresh.capacity() * sizeof(std::uint32_t));
-        fresh.insert(fresh.end(), out.begin(), out.end());
-        out.swap(fresh);
-      }
-      const std::size_t first = out.size();
-      fill(i, out);
-      lists.begin[i] = static_cast<std::uint32_t>(first);
-      lists.count[i] = static_cast<std::uint32_t>(out.size() - first);
-    }
-  }, 1);
+  lists.begin.assign(n + 1, 0);
+  if (n == 0) return lists;
+  {
+    constexpr std::size_t kStride = 61;
+    const std::size_t samples = (n + kStride - 1) / kStride;
+    std::vector<std::uint32_t> sampled(samples);
+    tbb::enumerable_thread_specific<std::vector<std::uint32_t>> scratch;
+    parallel_for_each(samples, [&](std::size_t s) {
+      auto& out = scratch.local();
+      out.clear();
+      fill(s * kStride, out);
+      sampled[s] = static_cast<std::uint32_t>(out.size());
+    }, 64);
+    double total = 0.0;
+    for (std::uint32_t c : sampled) total += c;
+    const auto estimate = static_cast<std::size_t>(total / double(samples) * double(n) * 1.01) + 4096;
+    regrow(lists.flat, estimate);
+  }
+  const std::size_t chunks = (n + kListChunk - 1) / kListChunk;
+  // A token is released only after the last (serial, in-order) stage, so chunks c and c + tokens are
+  // never in flight together and buffer c % tokens is chunk c's alone.
+  const auto tokens = static_cast<std::size_t>(2 * tbb::this_task_arena::max_concurrency());
+  std::vector<std::vector<std::uint32_t>> buffer(tokens);
+  std::size_t next = 0;
+  tbb::parallel_pipeline(
+      tokens,
+      tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
+                                          [&](tbb::flow_control& control) -> std::size_t {
+                                            if (next == chunks) control.stop();
+                                            return next++;
+                                          }) &
+          tbb::make_filter<std::size_t, std::size_t>(tbb::filter_mode::parallel,
+                                                     [&](std::size_t c) {
+                                                       auto& out = buffer[c % tokens];
+                                                       out.clear();
+                                                       const std::size_t end = std::min(n, (c + 1) * kListChunk);
+                                                       for (std::size_t i = c * kListChunk; i < end; ++i) {
+                                                         fill(i, out);
+                                                         lists.begin[i + 1] = static_cast<std::uint32_t>(out.size());
+                                                       }
+                                                       return c;
+                                                     }) &
+          tbb::make_filter<std::size_t, void>(tbb::filter_mode::serial_in_order, [&](std::size_t c) {
+            const auto& out = buffer[c % tokens];
+            auto& flat = lists.flat;
+            if (flat.size() + out.size() > flat.capacity()) regrow(flat, std::max(2 * flat.capacity(), flat.size() + out.size()));
+            const auto base = static_cast<std::uint32_t>(flat.size());
+            flat.insert(flat.end(), out.begin(), out.end());
+            const std::size_t end = std::min(n, (c + 1) * kListChunk);
+            for (std::size_t i = c * kListChunk; i < end; ++i) lists.begin[i + 1] += base;
+          }));
   return lists;
 }
 
@@ -113,8 +153,8 @@ class NearSorter {
 
 // Breadth-first search from each particle's tet over face-adjacent tets whose barycenters lie within
 // reach. The queue holds exactly the tets accepted so far, so it is the particle's list: it is sorted
-// in place at the end and appended to the chunk's vector. It lives in the thread's scratch (a few
-// hundred entries, in L1) rather than in the list vector. "Seen" is a byte per tet and thread, stamped
+// in place at the end and appended to the pipeline's buffer. It lives in the thread's scratch (a few
+// hundred entries, in L1) rather than in that buffer. "Seen" is a byte per tet and thread, stamped
 // with a generation number that wraps every 255 searches (then the bytes are cleared): 0.9 MB at 9e5
 // particles stays in the L2 cache where a 4-byte stamp per tet (3.6 MB) did not. A tet's four
 // neighbours are tested without branches (each is written to the queue's end, and the end advances only
@@ -190,7 +230,7 @@ Lists families_by_distance(const WorldState& w) {
 void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>>& tet_face_neighbors) {
   const auto& x = w.particles.reference_position;
   const std::size_t n = x.size();
-  const Lists lists = w.settings.family == scene::FamilyRule::mesh ? families_by_mesh(w, tet_face_neighbors)
+  Lists lists = w.settings.family == scene::FamilyRule::mesh ? families_by_mesh(w, tet_face_neighbors)
                                                                 : families_by_distance(w);
   // A bond is one physical link: i–j is bonded when either found the other. Bonds of i = L_i ∪ E_i,
   // where the extras E_i = {k : i ∈ L_k, k ∉ L_i} are the one-sided finds (rare: where two balls see
@@ -205,8 +245,9 @@ void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>
   };
   tbb::enumerable_thread_specific<Cursors> cursors(
       [n] { return Cursors{std::vector<std::uint32_t>(n, 0), std::vector<std::uint32_t>(n, 0)}; });
-  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> chunk_extras(lists.chunk.size());
-  parallel_for_each(lists.chunk.size(), [&](std::size_t c) {
+  const std::size_t chunks = (n + kListChunk - 1) / kListChunk;
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> chunk_extras(chunks);
+  parallel_for_each(chunks, [&](std::size_t c) {
     Cursors& cur = cursors.local();
     const auto stamp = static_cast<std::uint32_t>(c + 1);
     for (std::size_t k = c * kListChunk, end = std::min(n, (c + 1) * kListChunk); k < end; ++k) {
@@ -223,42 +264,55 @@ void build_families(WorldState& w, const std::vector<std::array<std::int32_t, 4>
       }
     }
   }, 1);
+  cursors.clear();
   std::vector<std::pair<std::uint32_t, std::uint32_t>> extras;  // (i, k): i also bonds k
   for (const auto& e : chunk_extras) extras.insert(extras.end(), e.begin(), e.end());
   chunk_extras = {};
   std::sort(extras.begin(), extras.end());
-  std::vector<std::uint32_t> extra_offsets(n + 1, 0);
+  std::vector<std::uint32_t> extra_offsets(n + 1, 0);  // extras of rows < i
   for (const auto& e : extras) ++extra_offsets[e.first + 1];
   for (std::size_t i = 0; i < n; ++i) extra_offsets[i + 1] += extra_offsets[i];
-  // Visits the sorted union of L_i and E_i (disjoint).
-  auto for_each_member = [&](std::size_t i, auto&& visit) {
-    const auto row = lists[i];
-    auto a = row.begin(), a_end = row.end();
-    auto t = extras.begin() + extra_offsets[i], t_end = extras.begin() + extra_offsets[i + 1];
-    while (a != a_end || t != t_end) {
-      if (t == t_end || (a != a_end && *a < t->second)) visit(*a++);
-      else visit((t++)->second);
-    }
-  };
 
   Bonds& b = w.bonds;
   b.offsets.assign(n + 1, 0);
   b.initial_count.resize(n);
   parallel_for_each(n, [&](std::size_t i) {
-    b.initial_count[i] = static_cast<std::uint32_t>(lists.count[i] + extra_offsets[i + 1] - extra_offsets[i]);
+    b.offsets[i] = lists.begin[i] + extra_offsets[i];
+    b.initial_count[i] = lists.begin[i + 1] - lists.begin[i] + extra_offsets[i + 1] - extra_offsets[i];
   }, 4096);
-  for (std::size_t i = 0; i < n; ++i) b.offsets[i + 1] = b.offsets[i] + b.initial_count[i];
+  b.offsets[n] = lists.begin[n] + extra_offsets[n];
   const std::size_t m = b.offsets[n];
+
+  // Bonds of i = L_i ∪ E_i, in place: row i moves right by the extras of the rows before it. From the
+  // last row back: the rows after a row with extras move as one block (memmove), then that row is
+  // merged from its end (the write position stays at or right of the read position, so nothing unread
+  // is overwritten). 579 extras in fig07 full: a few hundred block moves.
+  std::vector<std::uint32_t> flat = std::move(lists.flat);
+  const std::size_t listed = flat.size();
+  if (m > flat.capacity()) regrow(flat, m);
+  flat.resize(m);
+  std::size_t old_end = listed;  // [.., old_end): what is still at its listed place
+  for (std::size_t r = n; r-- > 0 && extra_offsets[r + 1] > 0;) {
+    if (extra_offsets[r + 1] == extra_offsets[r]) continue;
+    const std::size_t after = lists.begin[r + 1], shift = extra_offsets[r + 1];
+    std::memmove(flat.data() + after + shift, flat.data() + after, (old_end - after) * sizeof(std::uint32_t));
+    std::size_t write = after + shift, read = after, t = extra_offsets[r + 1];
+    const std::size_t read_first = lists.begin[r], t_first = extra_offsets[r];
+    while (t > t_first) {
+      if (read > read_first && flat[read - 1] > extras[t - 1].second) flat[--write] = flat[--read];
+      else flat[--write] = extras[--t].second;
+    }
+    old_end = read;  // the rest of row r moves with the rows before it, by extra_offsets[r]
+  }
+  // A small world's array is made exact (World::memory reports capacities); a large one keeps the
+  // estimate's headroom (about 1 %), which was reserved but never touched.
+  if (flat.capacity() != flat.size() && flat.size() * sizeof(std::uint32_t) < kHugePageMinBytes) flat.shrink_to_fit();
+  b.neighbor = std::move(flat);
   // The bond arrays are the largest the world holds: backed by huge pages (huge_pages.hpp).
-  assign_huge_pages(b.neighbor, m, std::uint32_t{0});
   assign_huge_pages(b.alive, m, std::uint8_t{1});
   // e^p only where something can yield (components/bonds.hpp); the step's kernels skip it otherwise.
   assign_huge_pages(b.plastic_extension, w.any_plastic ? m : 0, 0.0f);
   assign_huge_pages(b.plastic_extension_mirror, w.any_plastic ? m : 0, 0.0f);
-  parallel_for_each(n, [&](std::size_t i) {
-    std::uint32_t k = b.offsets[i];
-    for_each_member(i, [&](std::uint32_t j) { b.neighbor[k++] = j; });
-  }, 256);
 }
 
 std::vector<std::uint32_t> mirror_bonds(const Bonds& b) {
