@@ -17,7 +17,8 @@ namespace perifx::setup {
 // (bytes_per_bond); 377–518 B per particle (the most with a collider's surface frames: fig16 full),
 // 240–251 B more in the contact grid and pair list when contact is on; the tet mesh and the embedded
 // mesh 393 B per tet (fig01 preview, fig16 full). Setup holds transient arrays on top (adjacency, Morton
-// keys, the family lists), hence the peak factor: the full bunny's peak RSS in one process is 1.09 GiB
+// keys, the one-sided bond check's cursors; the family lists were one until they became the bond
+// array itself), hence the peak factor: the full bunny's peak RSS in one process is 1.09 GiB
 // (1.167 GB on 1 and on 2 threads, with release_freed_memory_promptly below) against 1003 MiB of arrays
 // and an estimate of 1.15 GiB (test `preflight: …` holds the estimate above what the world holds).
 inline constexpr double kBytesPerBondState = 5.0;
