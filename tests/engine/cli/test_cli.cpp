@@ -191,6 +191,31 @@ TEST_CASE("cli: info prints each material in physical units, and what its yield 
   fs::remove_all(dir);
 }
 
+TEST_CASE("cli: run says when a large world is being set up, and how long set-up took") {
+  // 118,098 particles (27 cells of 1.11 cm across a 30 cm cube asked for at 1.1 cm, 6 tets each), one step.
+  const auto dir = temp_dir("setup_lines");
+  const auto scene = write(dir, "big.json", R"({
+    "time": { "dt": 1e-5, "duration": 1e-5, "frame_rate": 1e5 },
+    "materials": { "gel": { "density": 1000, "youngs_modulus": 1e6, "poisson_ratio": 0.3 } },
+    "bodies": [ { "material": "gel", "geometry": { "type": "box", "size": [0.3, 0.3, 0.3], "edge_length": 0.011 } } ],
+    "output": { "formats": ["vtu"] } })");
+  const auto big = run_cli("run " + scene.string() + " --threads 2 --out " + (dir / "out").string());
+  REQUIRE(big.code == 0);
+  CHECK(big.output.find(": setting up 118098 particles (estimated peak ") != std::string::npos);
+  CHECK(big.output.find(": 118098 particles, ") != std::string::npos);
+  CHECK(big.output.find(" threads, set up in ") != std::string::npos);
+  CHECK(big.output.find("setting up") < big.output.find("set up in"));
+  // A small world gets only the line after set-up; --quiet gets neither.
+  const auto small = run_cli("run " + write(dir, "small.json", kScene).string() + " --threads 1 --frames 1 --out " +
+                             (dir / "small").string());
+  REQUIRE(small.code == 0);
+  CHECK(small.output.find("setting up") == std::string::npos);
+  CHECK(small.output.find("set up in ") != std::string::npos);
+  const auto quiet = run_cli("run " + scene.string() + " --quiet --overwrite --out " + (dir / "out").string());
+  REQUIRE(quiet.code == 0);
+  CHECK(quiet.output.find("set") == std::string::npos);
+}
+
 TEST_CASE("cli: perifx restarts itself with malloc asking for huge pages, unless told not to") {
   // setup/preflight.hpp (restart_with_huge_page_malloc). `perifx info` prints the process's resident
   // memory and the part in 2 MiB pages. The fig07 preview's set-up allocates ~20 MiB through malloc
