@@ -364,9 +364,16 @@ void size_deformation_arrays(WorldState& w) {
 void start_mesh_vertices(WorldState& w) {
   // The deformation motion is a pure function of the state, evaluated when the mesh is read
   // (World::tet_mesh, World::surface); evaluating it here, with y = x, only reproduced the reference
-  // vertices to round-off, at 18 % of a 9e5-particle set-up's CPU time (one fit per particle).
-  if (w.embedded.motion == VertexMotion::deformation) size_deformation_arrays(w);
-  else update_mesh_vertices(w, 0.0);
+  // vertices to round-off, at 18 % of a 9e5-particle set-up's CPU time (one fit per particle). Its
+  // per-particle arrays are sized then too, by their first evaluation, which writes every element: a
+  // run that never reads the mesh keeps them empty, so its checkpoints hold no uninitialized bytes
+  // (sized here and never written, they differed between two runs of the same scene), and set-up
+  // does not first-touch their ~190 B per particle.
+  if (w.embedded.motion == VertexMotion::deformation) {
+    if (w.embedded.held_deformation.size() != w.particles.count()) init_held_rotations(w);
+  } else {
+    update_mesh_vertices(w, 0.0);
+  }
 }
 
 void update_mesh_vertices(WorldState& w, double dt) {
