@@ -57,7 +57,7 @@ struct EmbeddedMesh {
   std::vector<double> weight_value;
 
   // ---- per particle = per tet (VertexMotion::deformation) ----
-  // Derived, evaluated when the mesh is read (systems/mesh_vertices.cpp):
+  // Derived, evaluated when the mesh is read (systems/mesh_vertices.cpp); empty until the first read:
   std::vector<Mat3> deformation;       // F_p, the particle's local deformation gradient (or its held rotation)
   std::vector<Mat3> deformation_rate;  // Ḟ_p, 1/s (zero where F_p is a held rotation)
   std::vector<std::uint8_t> deformation_fitted;  // 1 where F_p is p's own fitted gradient, 0 where it
