@@ -346,12 +346,18 @@ void rigid_small_components(WorldState& w) {
 }  // namespace
 
 namespace {
-// The deformation motion's per-particle and per-vertex arrays (sized, not computed), and its held
-// rotations on the first call.
+// The held rotations (step state of the mesh_rotations system), made at set-up by start_mesh_vertices;
+// the guard covers a world whose mesh is read without it.
+void ensure_held_rotations(WorldState& w) {
+  if (w.embedded.held_deformation.size() != w.particles.count()) init_held_rotations(w);
+}
+
+// The deformation motion's per-particle and per-vertex arrays (sized, not computed; their first
+// evaluation writes every element).
 void size_deformation_arrays(WorldState& w) {
   EmbeddedMesh& e = w.embedded;
   const std::size_t np = w.particles.count();
-  if (e.held_deformation.size() != np) init_held_rotations(w);  // first call (setup)
+  ensure_held_rotations(w);
   e.deformation.resize(np);
   e.deformation_rate.resize(np);
   e.deformation_fitted.resize(np);
@@ -369,11 +375,8 @@ void start_mesh_vertices(WorldState& w) {
   // run that never reads the mesh keeps them empty, so its checkpoints hold no uninitialized bytes
   // (sized here and never written, they differed between two runs of the same scene), and set-up
   // does not first-touch their ~190 B per particle.
-  if (w.embedded.motion == VertexMotion::deformation) {
-    if (w.embedded.held_deformation.size() != w.particles.count()) init_held_rotations(w);
-  } else {
-    update_mesh_vertices(w, 0.0);
-  }
+  if (w.embedded.motion == VertexMotion::deformation) ensure_held_rotations(w);
+  else update_mesh_vertices(w, 0.0);
 }
 
 void update_mesh_vertices(WorldState& w, double dt) {
