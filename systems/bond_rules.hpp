@@ -276,7 +276,21 @@ inline bool side_breaks(const BondGeometry& g, double r, double inverse_length, 
 //   finish(k, n):         after the chunk of n bonds starting at k (scalar; e.g. writes the flags).
 //   gather(k, n):         before the chunk (for_each_gathered_bond_lane): moves the chunk's neighbour
 //                         data into the kernel's lane arrays (bond_gather.hpp).
+//
+// The lane count is the SIMD width the loop gets. GCC 12 picks the loop's vector size from its
+// narrowest element (the 32-bit neighbour index, the float e^p): with 8 lanes that is 8 × 32 bits,
+// so the doubles ran as two 256-bit halves even on CPUs with 512-bit registers, and the loop was
+// never vectorized wider (asking with -mprefer-vector-width=512 changes nothing). With AVX-512, 16
+// lanes make each double a 512-bit pair and each 32-bit stream one 512-bit vector: on the Zen 5 VM
+// the bond pass at 3e5 particles took 343 → 265 ms, the anisotropic one 392 → 265, the held
+// rotations 51 → 35 (bench/README.md, "16 lanes with AVX-512"). The lane count fixes the summation
+// order, so a build with AVX-512 and one without round differently in the last bits; within one
+// build the results are the same for any thread and rank count.
+#if defined(__AVX512F__)
+inline constexpr int kBondLanes = 16;
+#else
 inline constexpr int kBondLanes = 8;
+#endif
 template <class Gather, class Lane, class Finish>
 inline void for_each_gathered_bond_lane(std::size_t begin, std::size_t end, const std::uint8_t* alive, Gather gather,
                                         Lane lane, Finish finish) {
