@@ -18,6 +18,10 @@
 #include <type_traits>
 #include <vector>
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 #include "components/bonds.hpp"
 #include "components/math.hpp"
 #include "components/particles.hpp"
@@ -302,11 +306,21 @@ inline void for_each_gathered_bond_lane(std::size_t begin, std::size_t end, cons
   std::size_t k = begin;
   for (; k + kBondLanes <= end; k += kBondLanes) {
     gather(k, kBondLanes);
+#if defined(__AVX512F__)
+    // The flags widened to one 64-bit word per lane before the loop: read as words[l >> 3] >> …
+    // from two words, GCC 12 made the 16-lane loop load them with a hardware gather.
+    alignas(64) std::uint64_t flags[kBondLanes];
+    for (int g = 0; g < kBondLanes; g += 8)
+      _mm512_store_si512(flags + g, _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(alive + k + g))));
+#pragma omp simd
+    for (int l = 0; l < kBondLanes; ++l) lane(k + static_cast<std::size_t>(l), l, flags[l]);
+#else
     std::uint64_t words[(kBondLanes + 7) / 8] = {};
     std::memcpy(words, alive + k, kBondLanes);
 #pragma omp simd
     for (int l = 0; l < kBondLanes; ++l)
       lane(k + static_cast<std::size_t>(l), l, (words[l >> 3] >> (8 * (l & 7))) & 0xffu);
+#endif
     finish(k, kBondLanes);
   }
   if constexpr (kBondLanes > 8) {
