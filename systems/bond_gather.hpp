@@ -98,10 +98,10 @@ inline void store8(double* dst, __m256d lo, __m256d hi) {
 #endif
 
 // Positions of the far ends of bonds k..k+n−1 (neighbor ids nb[0..n)); n ≤ kBondLanes. A multiple of 8
-// is loaded as vectors, other counts (a family's scalar tail) one by one.
+// is loaded as vectors, other counts one by one.
 [[gnu::always_inline]] inline void gather_positions(const double* y, const double* x, const std::uint32_t* nb, int n, ChunkPositions& c) {
 #ifdef PERIFX_BOND_GATHER_AVX
-  if (n % 8 == 0) {  // kBondLanes, or the 8-lane chunk of a tail
+  if (n % 8 == 0) {  // kBondLanes, or a 16-lane family's tail of exactly 8
     // Eight neighbours' x y z rows at p into lanes g..g+7 of dx, dy, dz.
     auto rows8 = [](const double* p, const std::uint32_t* q, double* dx, double* dy, double* dz) {
       __m256d a0, b0, d0, a1, b1, d1;
@@ -136,7 +136,7 @@ template <bool kInelastic>
   static_assert(offsetof(BondEnd, horizon) == 3 * sizeof(double) && offsetof(BondEnd, break_extension) == 7 * sizeof(double),
                 "the two halves of BondEnd are loaded as four doubles each");
 #ifdef PERIFX_BOND_GATHER_AVX
-  if (n % 8 == 0) {  // kBondLanes, or the 8-lane chunk of a tail
+  if (n % 8 == 0) {  // kBondLanes, or a 16-lane family's tail of exactly 8
     for (int g = 0; g < n; g += 8) {
       const double* e[8];
       for (int m = 0; m < 8; ++m) e[m] = &ends[nb[g + m]].coupling;

@@ -273,15 +273,15 @@ inline bool side_breaks(const BondGeometry& g, double r, double inverse_length, 
 // begin + c·kBondLanes + l on lane l. The per-bond work of a chunk is independent across lanes, so
 // the compiler runs a chunk as one SIMD pass (gathers for the neighbour data); sums over the family
 // are kept per lane and added in lane order at the end (sum_lanes). That order is fixed by this code,
-// not by the compiler or the thread count, so results stay bit-reproducible; the tail (with 16 lanes:
-// an 8-lane chunk first if 8 or more bonds remain) runs the same lane function, its bonds on lanes
-// 0, 1, … again.
+// not by the compiler or the thread count, so results stay bit-reproducible; the tail chunk runs the
+// same lane function in scalar form. (An 8-lane SIMD chunk for a 16-lane tail of 8 or more was tried:
+// GCC 12 called the lane function out of line in that loop, so it ran no faster; removed.)
 //   lane(k, l, alive_k):  the bond's work; alive_k is its alive flag (0 or 1) as a 64-bit integer:
 //                         byte-wide values in the SIMD loop would force 16+ lanes per vector.
 //   finish(k, n):         after the chunk of n bonds starting at k (scalar; e.g. writes the flags).
 //   gather(k, n):         before the chunk (for_each_gathered_bond_lane): moves the chunk's neighbour
-//                         data into the kernel's lane arrays (bond_gather.hpp); n is kBondLanes, 8 or
-//                         the scalar tail's count.
+//                         data into the kernel's lane arrays (bond_gather.hpp); n is kBondLanes or
+//                         the tail's count.
 //
 // The lane count is the SIMD width the loop gets. GCC 12 picks the loop's vector size from its
 // narrowest element (the 32-bit neighbour index, the float e^p): with 8 lanes that is 8 × 32 bits,
@@ -322,19 +322,6 @@ inline void for_each_gathered_bond_lane(std::size_t begin, std::size_t end, cons
       lane(k + static_cast<std::size_t>(l), l, (words[l >> 3] >> (8 * (l & 7))) & 0xffu);
 #endif
     finish(k, kBondLanes);
-  }
-  if constexpr (kBondLanes > 8) {
-    // A tail of 8 or more bonds starts with one 8-lane SIMD chunk (lanes 0–7, where the scalar tail
-    // would put them): a family's tail averages 7.5 bonds of 16 lanes, and it ran scalar.
-    if (end - k >= 8) {
-      gather(k, 8);
-      std::uint64_t word;
-      std::memcpy(&word, alive + k, 8);
-#pragma omp simd
-      for (int l = 0; l < 8; ++l) lane(k + static_cast<std::size_t>(l), l, (word >> (8 * l)) & 0xffu);
-      finish(k, 8);
-      k += 8;
-    }
   }
   const int tail = static_cast<int>(end - k);
   if (tail > 0) {
