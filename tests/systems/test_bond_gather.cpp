@@ -50,9 +50,13 @@ TEST_CASE("bond gathers hand every lane the far end's own doubles, and read noth
   // repeats; 29 bonds, so the traversal takes full chunks and a tail (13 with 16 lanes, 5 with 8).
   const std::vector<std::uint32_t> nb = {36, 0, 5, 36, 12, 35, 1, 36, 36, 17, 3, 29, 36, 8, 36, 2, 36, 20, 36, 36,
                                          0,  9, 36, 4, 36, 33, 7, 36, 36};
-  const std::vector<std::uint8_t> alive(nb.size(), 1);
+  // Alive flags in a pattern with both values in every chunk: the traversal unpacks them itself (a
+  // 64-bit word per lane; with AVX-512 widened by vector before the lane loop).
+  std::vector<std::uint8_t> alive(nb.size());
+  for (std::size_t b = 0; b < alive.size(); ++b) alive[b] = (b * 5) % 3 != 0;
   std::vector<std::pair<std::size_t, int>> chunks;  // (first bond, count) as the traversal gathers them
   std::vector<int> lane_of(nb.size(), -1);
+  std::vector<std::uint64_t> flag_of(nb.size(), 7);
   auto gather = [&](std::size_t k, int lanes) {
     CAPTURE(k);
     chunks.emplace_back(k, lanes);
@@ -84,9 +88,11 @@ TEST_CASE("bond gathers hand every lane the far end's own doubles, and read noth
     }
   };
   int* const lanes_seen = lane_of.data();
-  for_each_gathered_bond_lane(0, nb.size(), alive.data(), gather,
-                              [lanes_seen](std::size_t k, int l, std::uint64_t) { lanes_seen[k] = l; },
-                              [](std::size_t, int) {});
+  std::uint64_t* const flags_seen = flag_of.data();
+  for_each_gathered_bond_lane(
+      0, nb.size(), alive.data(), gather,
+      [lanes_seen, flags_seen](std::size_t k, int l, std::uint64_t flag) { lanes_seen[k] = l, flags_seen[k] = flag; },
+      [](std::size_t, int) {});
   // The chunks tile the family in order: full chunks, then the rest; every bond on lane (its index −
   // its chunk's first).
   std::vector<std::pair<std::size_t, int>> expected;
@@ -96,4 +102,8 @@ TEST_CASE("bond gathers hand every lane the far end's own doubles, and read noth
   CHECK(chunks == expected);
   for (const auto& [first, count] : expected)
     for (int l = 0; l < count; ++l) CHECK(lane_of[first + l] == l);
+  for (std::size_t b = 0; b < nb.size(); ++b) {
+    CAPTURE(b);
+    CHECK(flag_of[b] == alive[b]);
+  }
 }
