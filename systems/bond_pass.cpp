@@ -125,7 +125,7 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
             if (breaks_lanes[l]) alive_flag[k + static_cast<std::size_t>(l)] = 0;  // rare: a predictable branch
         }
       };
-      for_each_gathered_bond_lane(bs.offsets[i], bs.offsets[i + 1], alive_flag, gather, lane, finish);
+      for_each_gathered_bond_lane(bs.offsets[i], bs.offsets[i + 1], alive_flag, gather, lane, finish, DeadChunks::skip);
       const double v_i = end_i.volume;
       force_p[3 * i] = v_i * sum_lanes(fx);
       force_p[3 * i + 1] = v_i * sum_lanes(fy);

@@ -297,14 +297,38 @@ inline constexpr int kBondLanes = 16;
 #else
 inline constexpr int kBondLanes = 8;
 #endif
+// Dead chunks: a kernel whose broken bonds add exactly nothing (dilatation, force, bond pass, the
+// alive-only family fits) passes DeadChunks::skip, and a chunk whose bonds are all broken is then
+// neither gathered nor computed. The same bits as visiting it: such a lane adds a selected +0.0 (or a
+// product with 0.0) to a per-lane sum that starts at +0.0, and x + (±0.0) = x for every x that is not
+// −0.0, which a sum started at +0.0 never is (round to nearest gives −0.0 only for −0.0 + −0.0). Why:
+// a shattered body keeps its broken bonds in the rows (the embedded mesh fits read them), and the
+// families of fragments and of particles beside a crack lose whole Morton-ordered runs of neighbours.
+// A kernel that reads broken bonds too (the all-bonds family fits) passes DeadChunks::visit.
+enum class DeadChunks { visit, skip };
+// True when the n flags at `alive` are all 0 (n ≤ kBondLanes).
+inline bool all_broken(const std::uint8_t* alive, int n) {
+  if (n == kBondLanes) {
+    std::uint64_t words[kBondLanes / 8];
+    std::memcpy(words, alive, kBondLanes);
+    std::uint64_t any = 0;
+    for (int w = 0; w < kBondLanes / 8; ++w) any |= words[w];
+    return any == 0;
+  }
+  for (int l = 0; l < n; ++l)
+    if (alive[l]) return false;
+  return true;
+}
 template <class Gather, class Lane, class Finish>
 inline void for_each_gathered_bond_lane(std::size_t begin, std::size_t end, const std::uint8_t* alive, Gather gather,
-                                        Lane lane, Finish finish) {
+                                        Lane lane, Finish finish, DeadChunks dead) {
   static_assert(std::endian::native == std::endian::little, "alive flags are unpacked from a little-endian word");
   // std::size_t indices: with 32-bit ones the compiler must allow for wrap-around and cannot treat
   // k + l as a plain address stream. `lane` is taken by value so its captures are locals.
+  const bool skip_dead = dead == DeadChunks::skip;
   std::size_t k = begin;
   for (; k + kBondLanes <= end; k += kBondLanes) {
+    if (skip_dead && all_broken(alive + k, kBondLanes)) continue;
     gather(k, kBondLanes);
 #if defined(__AVX512F__)
     // The flags widened to one 64-bit word per lane before the loop: read as words[l >> 3] >> …
@@ -324,7 +348,7 @@ inline void for_each_gathered_bond_lane(std::size_t begin, std::size_t end, cons
     finish(k, kBondLanes);
   }
   const int tail = static_cast<int>(end - k);
-  if (tail > 0) {
+  if (tail > 0 && !(skip_dead && all_broken(alive + k, tail))) {
     gather(k, tail);
     for (int l = 0; l < tail; ++l) lane(k + static_cast<std::size_t>(l), l, std::uint64_t{alive[k + l]});
     finish(k, tail);
@@ -332,8 +356,8 @@ inline void for_each_gathered_bond_lane(std::size_t begin, std::size_t end, cons
 }
 template <class Lane, class Finish>
 inline void for_each_bond_lane(std::size_t begin, std::size_t end, const std::uint8_t* alive, Lane lane,
-                               Finish finish) {
-  for_each_gathered_bond_lane(begin, end, alive, [](std::size_t, int) {}, lane, finish);
+                               Finish finish, DeadChunks dead) {
+  for_each_gathered_bond_lane(begin, end, alive, [](std::size_t, int) {}, lane, finish, dead);
 }
 template <class T>
 inline T sum_lanes(const T (&lanes)[kBondLanes]) {

@@ -47,7 +47,8 @@ void compute_dilatation(const WorldState& w, const std::vector<Vec3>& y_vec, std
           const double term = ramped_horizon(delta_i, r, ramp) * (len - r) * dot * volume[j] / (len * r * ell);
           sum[l] += (is_alive != 0) & (len > 0.0) ? term : 0.0;
         };
-        for_each_gathered_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, gather, lane, [](std::size_t, int) {});
+        for_each_gathered_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, gather, lane, [](std::size_t, int) {},
+                                    DeadChunks::skip);
         const double th = md.dilatation_scale[i] * sum_lanes(sum);
         theta[i] = th;
         coupling[i] = dilatation_coupling(md, i, th);

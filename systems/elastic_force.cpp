@@ -76,7 +76,7 @@ void compute_internal_force(const WorldState& w, const std::vector<Vec3>& y_vec,
           fy[l] += c * dyy;
           fz[l] += c * dyz;
         };
-        for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
+        for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {}, DeadChunks::skip);
         out[3 * i] = volume[i] * sum_lanes(fx);
         out[3 * i + 1] = volume[i] * sum_lanes(fy);
         out[3 * i + 2] = volume[i] * sum_lanes(fz);

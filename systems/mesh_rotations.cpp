@@ -156,7 +156,8 @@ std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only
     }
     count[l] += use;
   };
-  for_each_gathered_bond_lane(bs.offsets[p], bs.offsets[p + 1], bs.alive, gather, lane, [](std::size_t, int) {});
+  for_each_gathered_bond_lane(bs.offsets[p], bs.offsets[p + 1], bs.alive, gather, lane, [](std::size_t, int) {},
+                              alive_only ? DeadChunks::skip : DeadChunks::visit);
   const double kxx = sum_lanes(k6[0]), kyy = sum_lanes(k6[1]), kzz = sum_lanes(k6[2]), kxy = sum_lanes(k6[3]),
                kxz = sum_lanes(k6[4]), kyz = sum_lanes(k6[5]);
   K << kxx, kxy, kxz, kxy, kyy, kyz, kxz, kyz, kzz;

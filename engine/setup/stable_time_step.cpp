@@ -135,7 +135,8 @@ double stable_time_step_bound(const WorldState& w) {
       lanes[4][l] += an * dx * dx, lanes[5][l] += an * dy * dy, lanes[6][l] += an * dz * dz;
       lanes[7][l] += an * dx * dy, lanes[8][l] += an * dx * dz, lanes[9][l] += an * dy * dz;
     };
-    systems::for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {});
+    systems::for_each_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, lane, [](std::size_t, int) {},
+                                systems::DeadChunks::visit);
     RowSums out;
     if constexpr (kOwn) {
       out.s = systems::sum_lanes(lanes[0]);

@@ -92,7 +92,7 @@ TEST_CASE("bond gathers hand every lane the far end's own doubles, and read noth
   for_each_gathered_bond_lane(
       0, nb.size(), alive.data(), gather,
       [lanes_seen, flags_seen](std::size_t k, int l, std::uint64_t flag) { lanes_seen[k] = l, flags_seen[k] = flag; },
-      [](std::size_t, int) {});
+      [](std::size_t, int) {}, DeadChunks::skip);  // every chunk has a live bond: nothing is skipped
   // The chunks tile the family in order: full chunks, then the rest; every bond on lane (its index −
   // its chunk's first).
   std::vector<std::pair<std::size_t, int>> expected;
@@ -105,5 +105,40 @@ TEST_CASE("bond gathers hand every lane the far end's own doubles, and read noth
   for (std::size_t b = 0; b < nb.size(); ++b) {
     CAPTURE(b);
     CHECK(flag_of[b] == alive[b]);
+  }
+}
+
+// DeadChunks::skip leaves out exactly the chunks whose bonds are all broken (neither gathered nor
+// computed nor finished) and visits every other chunk whole, dead lanes included; DeadChunks::visit
+// visits everything. Checked on a family with a dead full chunk between live ones and a dead tail.
+TEST_CASE("a chunk whose bonds are all broken is skipped only when the kernel asks, and only that chunk") {
+  // Four full chunks and a tail of 3; chunk 1 and the tail all broken, chunk 2 with one live bond (its
+  // last lane), chunk 3 all alive, chunk 0 with one live bond (its first lane).
+  const std::size_t bonds = 4 * kBondLanes + 3;
+  std::vector<std::uint8_t> alive(bonds, 0);
+  alive[0] = 1;
+  alive[3 * kBondLanes - 1] = 1;
+  for (std::size_t b = 3 * kBondLanes; b < 4 * kBondLanes; ++b) alive[b] = 1;
+  for (const DeadChunks dead : {DeadChunks::skip, DeadChunks::visit}) {
+    CAPTURE(static_cast<int>(dead));
+    std::vector<std::pair<std::size_t, int>> gathered, finished;
+    std::vector<int> visits(bonds, 0);
+    int* const v = visits.data();
+    for_each_gathered_bond_lane(
+        0, bonds, alive.data(), [&](std::size_t k, int n) { gathered.emplace_back(k, n); },
+        [v](std::size_t k, int, std::uint64_t) { ++v[k]; }, [&](std::size_t k, int n) { finished.emplace_back(k, n); },
+        dead);
+    std::vector<std::pair<std::size_t, int>> expected = {{0, kBondLanes}};
+    if (dead == DeadChunks::visit) expected.emplace_back(kBondLanes, kBondLanes);
+    expected.emplace_back(2 * kBondLanes, kBondLanes);
+    expected.emplace_back(3 * kBondLanes, kBondLanes);
+    if (dead == DeadChunks::visit) expected.emplace_back(4 * kBondLanes, 3);
+    CHECK(gathered == expected);
+    CHECK(finished == expected);
+    for (std::size_t b = 0; b < bonds; ++b) {
+      CAPTURE(b);
+      const bool skipped_chunk = (b >= kBondLanes && b < 2 * kBondLanes) || b >= 4 * kBondLanes;
+      CHECK(visits[b] == (dead == DeadChunks::skip && skipped_chunk ? 0 : 1));
+    }
   }
 }
