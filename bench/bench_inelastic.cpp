@@ -87,6 +87,64 @@ BENCHMARK(BM_BondPassAnisotropic)->Apply([](benchmark::internal::Benchmark* b) {
   b->Unit(benchmark::kMillisecond);
 });
 
+// The two bond kernels of a step (dilatation, then the fused bond pass) on the inelastic 3e5 body
+// broken into cubic fragments: every bond crossing a plane x, y or z = multiple of `fragment` cells
+// is broken (both directions), as a shattered body keeps its broken bonds in the rows. fragment:0 is
+// the intact body. The rate counts every directed bond, broken or not, per iteration (the step's
+// definition), so a kernel that skips broken bonds reads faster than the intact body;
+// `broken_fraction` says how many of them are broken. What it measures: how much of a shattered
+// body's broken bonds the kernels' dead-chunk skip (bond_rules.hpp, DeadChunks) saves.
+World& shattered_world(int fragment, int threads) {
+  static std::map<std::pair<int, int>, std::unique_ptr<World>> worlds;
+  auto& slot = worlds[{fragment, threads}];
+  if (!slot) {
+    scene::Scene s = box_scene(cubes_for(303918), threads, bench_dt());
+    make_inelastic(s);
+    slot = std::make_unique<World>(s);
+    deform(*slot, threads);
+    if (fragment > 0) {
+      WorldState& w = slot->state_mutable();
+      const double size = fragment * kCell;
+      const auto cell = [&](std::size_t i) {
+        const Vec3& x = w.particles.reference_position[i];
+        return Eigen::Vector3i(int(std::floor(x.x() / size)), int(std::floor(x.y() / size)), int(std::floor(x.z() / size)));
+      };
+      for (std::size_t i = 0; i < w.particles.count(); ++i)
+        for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k)
+          if (cell(i) != cell(w.bonds.neighbor[k])) w.bonds.alive[k] = 0;
+    }
+  }
+  return *slot;
+}
+void BM_ShatteredBondKernels(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(1));
+  World& world = shattered_world(static_cast<int>(state.range(0)), threads);
+  WorldState& w = world.state_mutable();
+  auto& a = arena(threads);
+  const std::size_t alive = world.alive_bond_count();
+  for (auto _ : state) {
+    a.execute([&] {
+      systems::compute_dilatation(w, w.particles.position, w.state.dilatation, w.state.dilatation_coupling);
+      systems::run_bond_pass(w, w.particles.position, w.state.internal_force);
+    });
+    benchmark::DoNotOptimize(w.state.internal_force.data());
+    benchmark::ClobberMemory();
+  }
+  if (!all_finite(w.state.internal_force)) state.SkipWithError("non-finite internal force");
+  if (world.alive_bond_count() != alive) state.SkipWithError("bonds broke: the timed work changed");
+  report(state, world, threads, static_cast<double>(world.bond_count()));
+  state.counters["broken_fraction"] = 1.0 - static_cast<double>(alive) / static_cast<double>(world.bond_count());
+}
+BENCHMARK(BM_ShatteredBondKernels)
+    ->ArgNames({"fragment", "threads"})
+    ->Args({0, 1})
+    ->Args({8, 1})
+    ->Args({4, 1})
+    ->Args({2, 1})
+    ->Args({2, 2})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
 // Particle–particle contact alone (contact.cpp) on the intact inelastic body, step-equivalent rate
 // (the body's bonds per iteration), to compare with the bond kernels.
 //   BM_Contact:        a step whose pair list is still valid (the common case: an O(n) staleness
