@@ -111,9 +111,11 @@ World& shattered_world(int fragment, int threads) {
         const Vec3& x = w.particles.reference_position[i];
         return Eigen::Vector3i(int(std::floor(x.x() / size)), int(std::floor(x.y() / size)), int(std::floor(x.z() / size)));
       };
-      for (std::size_t i = 0; i < w.particles.count(); ++i)
+      for (std::size_t i = 0; i < w.particles.count(); ++i) {
+        const Eigen::Vector3i own = cell(i);
         for (std::uint32_t k = w.bonds.offsets[i]; k < w.bonds.offsets[i + 1]; ++k)
-          if (cell(i) != cell(w.bonds.neighbor[k])) w.bonds.alive[k] = 0;
+          if (own != cell(w.bonds.neighbor[k])) w.bonds.alive[k] = 0;
+      }
     }
   }
   return *slot;
