@@ -319,6 +319,49 @@ inline bool all_broken(const std::uint8_t* alive, int n) {
     if (alive[l]) return false;
   return true;
 }
+// One full chunk [k, k + kBondLanes) as SIMD, lanes below first_lane given flag 0 (the overlapped tail
+// below; 0 for an ordinary chunk).
+template <class Lane>
+[[gnu::always_inline]] inline void run_bond_chunk(std::size_t k, const std::uint8_t* alive, int first_lane, Lane& lane) {
+#if defined(__AVX512F__)
+  // The flags widened to one 64-bit word per lane before the loop: read as words[l >> 3] >> …
+  // from two words, GCC 12 made the 16-lane loop load them with a hardware gather. Lanes below
+  // first_lane are zeroed in the flag bytes before widening (scalar stores into the array would stall
+  // the lane loop's vector loads of it; the widening's own zero mask made GCC 12 fail, an internal
+  // compiler error).
+  alignas(64) std::uint64_t flags[kBondLanes];
+  for (int g = 0; g < kBondLanes; g += 8) {
+    std::uint64_t bytes;
+    std::memcpy(&bytes, alive + k + g, 8);
+    const int below = first_lane - g;  // lanes of this group to zero
+    if (below >= 8) bytes = 0;
+    else if (below > 0) bytes &= ~std::uint64_t{0} << (8 * below);
+    _mm512_store_si512(flags + g, _mm512_cvtepu8_epi64(_mm_cvtsi64_si128(static_cast<long long>(bytes))));
+  }
+#pragma omp simd
+  for (int l = 0; l < kBondLanes; ++l) lane(k + static_cast<std::size_t>(l), l, flags[l]);
+#else
+  std::uint64_t words[(kBondLanes + 7) / 8] = {};
+  std::memcpy(words, alive + k, kBondLanes);
+  for (int w = 0; w < (kBondLanes + 7) / 8; ++w) {
+    const int below = first_lane - 8 * w;  // lanes of this word to zero
+    if (below >= 8) words[w] = 0;
+    else if (below > 0) words[w] &= ~std::uint64_t{0} << (8 * below);
+  }
+#pragma omp simd
+  for (int l = 0; l < kBondLanes; ++l)
+    lane(k + static_cast<std::size_t>(l), l, (words[l >> 3] >> (8 * (l & 7))) & 0xffu);
+#endif
+}
+// The tail of a family (its last end − begin mod kBondLanes bonds) with DeadChunks::skip, in a family
+// of at least kBondLanes bonds, runs as one more SIMD chunk: the family's last kBondLanes bonds, the
+// ones already visited given flag 0. That is exactly what a skip kernel does with a broken bond (adds
+// nothing), and the tail's bonds come on lanes kBondLanes − tail … kBondLanes − 1. Why: run scalar,
+// a tail of 8 bonds cost about what a SIMD chunk of 16 does (the kernels are bound by divisions,
+// square roots and the gathers' shuffles, which SIMD shares out). The contract this adds for a skip
+// kernel: for a lane with flag 0 it may write only what it read (the bond pass stores a bond's e^p
+// back unchanged), since such a bond may be visited twice. A visit kernel (which reads every bond)
+// keeps the scalar tail.
 template <class Gather, class Lane, class Finish>
 inline void for_each_gathered_bond_lane(std::size_t begin, std::size_t end, const std::uint8_t* alive, Gather gather,
                                         Lane lane, Finish finish, DeadChunks dead) {
@@ -327,32 +370,29 @@ inline void for_each_gathered_bond_lane(std::size_t begin, std::size_t end, cons
   // k + l as a plain address stream. `lane` is taken by value so its captures are locals.
   const bool skip_dead = dead == DeadChunks::skip;
   std::size_t k = begin;
-  for (; k + kBondLanes <= end; k += kBondLanes) {
-    if (skip_dead && all_broken(alive + k, kBondLanes)) continue;
-    gather(k, kBondLanes);
-#if defined(__AVX512F__)
-    // The flags widened to one 64-bit word per lane before the loop: read as words[l >> 3] >> …
-    // from two words, GCC 12 made the 16-lane loop load them with a hardware gather.
-    alignas(64) std::uint64_t flags[kBondLanes];
-    for (int g = 0; g < kBondLanes; g += 8)
-      _mm512_store_si512(flags + g, _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(alive + k + g))));
-#pragma omp simd
-    for (int l = 0; l < kBondLanes; ++l) lane(k + static_cast<std::size_t>(l), l, flags[l]);
-#else
-    std::uint64_t words[(kBondLanes + 7) / 8] = {};
-    std::memcpy(words, alive + k, kBondLanes);
-#pragma omp simd
-    for (int l = 0; l < kBondLanes; ++l)
-      lane(k + static_cast<std::size_t>(l), l, (words[l >> 3] >> (8 * (l & 7))) & 0xffu);
-#endif
-    finish(k, kBondLanes);
+  // One call site of the SIMD chunk for the full chunks and the overlapped tail: a second copy of the
+  // lane loop grows the kernel past GCC's inlining limits (bench/README.md, "Tried and not kept").
+  for (;; k += kBondLanes) {
+    std::size_t first = k;
+    int masked = 0;
+    if (k + kBondLanes <= end) {
+      if (skip_dead && all_broken(alive + k, kBondLanes)) continue;
+    } else if (skip_dead && k > begin && k < end && !all_broken(alive + k, static_cast<int>(end - k))) {
+      first = end - kBondLanes;  // overlapped tail
+      masked = static_cast<int>(k - first);
+    } else {
+      break;
+    }
+    gather(first, kBondLanes);
+    run_bond_chunk(first, alive, masked, lane);
+    finish(first, kBondLanes);
+    if (masked) return;
   }
   const int tail = static_cast<int>(end - k);
-  if (tail > 0 && !(skip_dead && all_broken(alive + k, tail))) {
-    gather(k, tail);
-    for (int l = 0; l < tail; ++l) lane(k + static_cast<std::size_t>(l), l, std::uint64_t{alive[k + l]});
-    finish(k, tail);
-  }
+  if (tail == 0 || (skip_dead && all_broken(alive + k, tail))) return;
+  gather(k, tail);
+  for (int l = 0; l < tail; ++l) lane(k + static_cast<std::size_t>(l), l, std::uint64_t{alive[k + l]});
+  finish(k, tail);
 }
 template <class Lane, class Finish>
 inline void for_each_bond_lane(std::size_t begin, std::size_t end, const std::uint8_t* alive, Lane lane,

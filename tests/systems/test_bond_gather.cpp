@@ -7,6 +7,7 @@
 
 #include <cstring>
 #include <random>
+#include <tuple>
 #include <vector>
 
 #include "systems/bond_gather.hpp"
@@ -54,57 +55,80 @@ TEST_CASE("bond gathers hand every lane the far end's own doubles, and read noth
   // 64-bit word per lane; with AVX-512 widened by vector before the lane loop).
   std::vector<std::uint8_t> alive(nb.size());
   for (std::size_t b = 0; b < alive.size(); ++b) alive[b] = (b * 5) % 3 != 0;
-  std::vector<std::pair<std::size_t, int>> chunks;  // (first bond, count) as the traversal gathers them
-  std::vector<int> lane_of(nb.size(), -1);
-  std::vector<std::uint64_t> flag_of(nb.size(), 7);
-  auto gather = [&](std::size_t k, int lanes) {
-    CAPTURE(k);
-    chunks.emplace_back(k, lanes);
-    ChunkPositions p;
-    gather_positions(y.data, x.data, nb.data() + k, lanes, p);
-    ChunkEnds e;
-    gather_ends<true>(ends.data(), nb.data() + k, lanes, e);
-    ChunkEnds elastic;
-    gather_ends<false>(ends.data(), nb.data() + k, lanes, elastic);
-    for (int l = 0; l < lanes; ++l) {
-      CAPTURE(l);
-      const std::size_t j = nb[k + l];
-      CHECK(same_bits(p.yx[l], y.data[3 * j]));
-      CHECK(same_bits(p.yy[l], y.data[3 * j + 1]));
-      CHECK(same_bits(p.yz[l], y.data[3 * j + 2]));
-      CHECK(same_bits(p.xx[l], x.data[3 * j]));
-      CHECK(same_bits(p.xy[l], x.data[3 * j + 1]));
-      CHECK(same_bits(p.xz[l], x.data[3 * j + 2]));
-      for (const ChunkEnds* c : {&e, &elastic}) {
-        CHECK(same_bits(c->coupling[l], ends[j].coupling));
-        CHECK(same_bits(c->b4[l], ends[j].b4));
-        CHECK(same_bits(c->volume[l], ends[j].volume));
-        CHECK(same_bits(c->horizon[l], ends[j].horizon));
+  // Both traversals: DeadChunks::visit runs the tail as its own short chunk, DeadChunks::skip as the
+  // family's last kBondLanes bonds with the ones already visited given flag 0 (bond_rules.hpp).
+  for (const DeadChunks dead : {DeadChunks::visit, DeadChunks::skip}) {
+    CAPTURE(static_cast<int>(dead));
+    std::vector<std::pair<std::size_t, int>> chunks;  // (first bond, count) as the traversal gathers them
+    auto gather = [&](std::size_t k, int lanes) {
+      CAPTURE(k);
+      chunks.emplace_back(k, lanes);
+      ChunkPositions p;
+      gather_positions(y.data, x.data, nb.data() + k, lanes, p);
+      ChunkEnds e;
+      gather_ends<true>(ends.data(), nb.data() + k, lanes, e);
+      ChunkEnds elastic;
+      gather_ends<false>(ends.data(), nb.data() + k, lanes, elastic);
+      for (int l = 0; l < lanes; ++l) {
+        CAPTURE(l);
+        const std::size_t j = nb[k + l];
+        CHECK(same_bits(p.yx[l], y.data[3 * j]));
+        CHECK(same_bits(p.yy[l], y.data[3 * j + 1]));
+        CHECK(same_bits(p.yz[l], y.data[3 * j + 2]));
+        CHECK(same_bits(p.xx[l], x.data[3 * j]));
+        CHECK(same_bits(p.xy[l], x.data[3 * j + 1]));
+        CHECK(same_bits(p.xz[l], x.data[3 * j + 2]));
+        for (const ChunkEnds* c : {&e, &elastic}) {
+          CHECK(same_bits(c->coupling[l], ends[j].coupling));
+          CHECK(same_bits(c->b4[l], ends[j].b4));
+          CHECK(same_bits(c->volume[l], ends[j].volume));
+          CHECK(same_bits(c->horizon[l], ends[j].horizon));
+        }
+        CHECK(same_bits(e.beta_theta[l], ends[j].beta_theta));
+        CHECK(same_bits(e.yield_extension[l], ends[j].yield_extension));
+        CHECK(same_bits(e.plastic_cap[l], ends[j].plastic_cap));
+        CHECK(same_bits(e.break_extension[l], ends[j].break_extension));
       }
-      CHECK(same_bits(e.beta_theta[l], ends[j].beta_theta));
-      CHECK(same_bits(e.yield_extension[l], ends[j].yield_extension));
-      CHECK(same_bits(e.plastic_cap[l], ends[j].plastic_cap));
-      CHECK(same_bits(e.break_extension[l], ends[j].break_extension));
+    };
+    // Every lane call as (bond, lane, flag), in call order.
+    std::vector<std::tuple<std::size_t, int, std::uint64_t>> calls;
+    auto* const calls_p = &calls;
+    for_each_gathered_bond_lane(
+        0, nb.size(), alive.data(), gather,
+        [calls_p](std::size_t k, int l, std::uint64_t flag) { calls_p->emplace_back(k, l, flag); },
+        [](std::size_t, int) {}, dead);  // every chunk has a live bond: nothing is skipped
+    // Full chunks in order, every bond on lane (its index − its chunk's first) with its own flag; then
+    // the tail.
+    std::vector<std::pair<std::size_t, int>> expected;
+    std::vector<std::tuple<std::size_t, int, std::uint64_t>> expected_calls;
+    std::size_t k = 0;
+    for (; k + kBondLanes <= nb.size(); k += kBondLanes) {
+      expected.emplace_back(k, kBondLanes);
+      for (int l = 0; l < kBondLanes; ++l) expected_calls.emplace_back(k + l, l, alive[k + l]);
     }
-  };
-  int* const lanes_seen = lane_of.data();
-  std::uint64_t* const flags_seen = flag_of.data();
-  for_each_gathered_bond_lane(
-      0, nb.size(), alive.data(), gather,
-      [lanes_seen, flags_seen](std::size_t k, int l, std::uint64_t flag) { lanes_seen[k] = l, flags_seen[k] = flag; },
-      [](std::size_t, int) {}, DeadChunks::skip);  // every chunk has a live bond: nothing is skipped
-  // The chunks tile the family in order: full chunks, then the rest; every bond on lane (its index −
-  // its chunk's first).
-  std::vector<std::pair<std::size_t, int>> expected;
-  std::size_t k = 0;
-  for (; k + kBondLanes <= nb.size(); k += kBondLanes) expected.emplace_back(k, kBondLanes);
-  if (k < nb.size()) expected.emplace_back(k, static_cast<int>(nb.size() - k));
-  CHECK(chunks == expected);
-  for (const auto& [first, count] : expected)
-    for (int l = 0; l < count; ++l) CHECK(lane_of[first + l] == l);
-  for (std::size_t b = 0; b < nb.size(); ++b) {
-    CAPTURE(b);
-    CHECK(flag_of[b] == alive[b]);
+    const int tail = static_cast<int>(nb.size() - k);
+    REQUIRE(tail > 0);
+    if (dead == DeadChunks::visit) {
+      expected.emplace_back(k, tail);
+      for (int l = 0; l < tail; ++l) expected_calls.emplace_back(k + l, l, alive[k + l]);
+    } else {
+      const std::size_t last = nb.size() - kBondLanes;
+      expected.emplace_back(last, kBondLanes);
+      for (int l = 0; l < kBondLanes; ++l)
+        expected_calls.emplace_back(last + l, l, last + l < k ? 0 : alive[last + l]);
+    }
+    CHECK(chunks == expected);
+    CHECK(calls == expected_calls);
+  }
+  // A family shorter than a chunk has nothing to overlap: its bonds run as one short chunk either way.
+  for (const DeadChunks dead : {DeadChunks::visit, DeadChunks::skip}) {
+    std::vector<std::pair<std::size_t, int>> chunks;
+    std::vector<std::size_t> bonds;
+    for_each_gathered_bond_lane(
+        3, 8, alive.data(), [&](std::size_t k, int lanes) { chunks.emplace_back(k, lanes); },
+        [&bonds](std::size_t k, int, std::uint64_t) { bonds.push_back(k); }, [](std::size_t, int) {}, dead);
+    CHECK(chunks == std::vector<std::pair<std::size_t, int>>{{3, 5}});
+    CHECK(bonds == std::vector<std::size_t>{3, 4, 5, 6, 7});
   }
 }
 
