@@ -52,6 +52,12 @@ enum class RowForm : std::uint8_t {
   shared_metric = 2  // anisotropic, and every neighbour's metric equals this particle's: ℓ_ji = ℓ_ij
 };
 
+// A particle's reference position and volume, one 32-byte vector (ParticleModel::reference_point).
+struct alignas(32) ReferencePoint {
+  double x, y, z;  // m
+  double volume;   // m³
+};
+
 struct ParticleModel {
   std::vector<double> horizon;          // δ, m
   // Per particle when some material has G ≠ I (WorldState::any_anisotropic), else empty.
@@ -75,6 +81,10 @@ struct ParticleModel {
   std::vector<double> plastic_cap;      // γ/|ξ| (Eq 16), dimensionless
   std::vector<double> critical_stretch; // s_c (Eq 19); ∞ = unbreakable
   std::vector<double> damage_alpha;     // α (Eq 19, systems/README.md §5)
+  // A copy of particles.reference_position and particles.volume packed per particle (set with the
+  // constants above), for the bond kernels' gathers: a neighbour's ξ end and V_j come in with one
+  // aligned 32-byte load (systems/bond_gather.hpp) instead of a masked load and a scalar V_j.
+  std::vector<ReferencePoint> reference_point;
 };
 
 // What the fused bond pass reads of the far end j of a bond i→j, packed in one 64-byte line per

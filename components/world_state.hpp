@@ -155,6 +155,7 @@ void for_each_array(W& w, F&& f) {
   f(K::particle, "model.plastic_cap", m.plastic_cap);
   f(K::particle, "model.critical_stretch", m.critical_stretch);
   f(K::particle, "model.damage_alpha", m.damage_alpha);
+  f(K::particle, "model.reference_point", m.reference_point);
   auto& s = w.state;
   f(K::particle, "state.dilatation", s.dilatation);
   f(K::particle, "state.dilatation_coupling", s.dilatation_coupling);

@@ -15,8 +15,9 @@
 // cache (with 256-bit stores the 16-lane dilatation pass took 1.3× as long, 135 against 100 ms).
 //
 // The kernels call these from for_each_gathered_bond_lane (bond_rules.hpp).
-// Shapes: a chunk is kBondLanes bonds; every array below has one entry per lane. `y` and `x` are 3
-// doubles per particle (x y z), `ends` one BondEnd (64-byte aligned) per particle.
+// Shapes: a chunk is kBondLanes bonds; every array below has one entry per lane. `y` is 3 doubles per
+// particle (x y z), `reference` one ReferencePoint (x y z V, 32-byte aligned) and `ends` one BondEnd
+// (64-byte aligned) per particle.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -33,10 +34,12 @@ namespace perifx::systems {
 
 static_assert(kBondLanes % 8 == 0, "chunks are gathered four neighbours at a time and stored eight lanes at a time");
 
-// y_j − y_i and ξ = x_j − x_i need both positions of the far end.
+// y_j − y_i and ξ = x_j − x_i need both positions of the far end; V_j comes with x_j
+// (ParticleModel::reference_point).
 struct ChunkPositions {
   alignas(64) double yx[kBondLanes], yy[kBondLanes], yz[kBondLanes];
   alignas(64) double xx[kBondLanes], xy[kBondLanes], xz[kBondLanes];
+  alignas(64) double v[kBondLanes];
 };
 // The far end's BondEnd, one array per field (field order as in BondEnd).
 struct ChunkEnds {
@@ -97,35 +100,43 @@ inline void store8(double* dst, __m256d lo, __m256d hi) {
 }  // namespace detail
 #endif
 
-// Positions of the far ends of bonds k..k+n−1 (neighbor ids nb[0..n)); n ≤ kBondLanes. A multiple of 8
-// is loaded as vectors, other counts one by one.
-[[gnu::always_inline]] inline void gather_positions(const double* y, const double* x, const std::uint32_t* nb, int n, ChunkPositions& c) {
+// Positions and volumes of the far ends of bonds k..k+n−1 (neighbor ids nb[0..n)); n ≤ kBondLanes. y is
+// 3 doubles per particle, `reference` one ReferencePoint (x y z V, 32-byte aligned). A multiple of 8 is
+// loaded as vectors, other counts one by one.
+[[gnu::always_inline]] inline void gather_positions(const double* y, const ReferencePoint* reference,
+                                                    const std::uint32_t* nb, int n, ChunkPositions& c) {
 #ifdef PERIFX_BOND_GATHER_AVX
   if (n % 8 == 0) {  // kBondLanes, or a 16-lane family's tail of exactly 8
-    // Eight neighbours' x y z rows at p into lanes g..g+7 of dx, dy, dz.
-    auto rows8 = [](const double* p, const std::uint32_t* q, double* dx, double* dy, double* dz) {
-      __m256d a0, b0, d0, a1, b1, d1;
-      detail::transpose3(detail::load_xyz(p + 3 * std::size_t(q[0])), detail::load_xyz(p + 3 * std::size_t(q[1])),
-                         detail::load_xyz(p + 3 * std::size_t(q[2])), detail::load_xyz(p + 3 * std::size_t(q[3])), a0, b0,
-                         d0);
-      detail::transpose3(detail::load_xyz(p + 3 * std::size_t(q[4])), detail::load_xyz(p + 3 * std::size_t(q[5])),
-                         detail::load_xyz(p + 3 * std::size_t(q[6])), detail::load_xyz(p + 3 * std::size_t(q[7])), a1, b1,
-                         d1);
-      detail::store8(dx, a0, a1);
-      detail::store8(dy, b0, b1);
-      detail::store8(dz, d0, d1);
-    };
     for (int g = 0; g < n; g += 8) {
-      rows8(y, nb + g, c.yx + g, c.yy + g, c.yz + g);
-      rows8(x, nb + g, c.xx + g, c.xy + g, c.xz + g);
+      const std::uint32_t* q = nb + g;
+      // Eight neighbours' y rows (x y z) into lanes g..g+7.
+      __m256d a0, b0, d0, a1, b1, d1, f0, f1;
+      detail::transpose3(detail::load_xyz(y + 3 * std::size_t(q[0])), detail::load_xyz(y + 3 * std::size_t(q[1])),
+                         detail::load_xyz(y + 3 * std::size_t(q[2])), detail::load_xyz(y + 3 * std::size_t(q[3])), a0, b0,
+                         d0);
+      detail::transpose3(detail::load_xyz(y + 3 * std::size_t(q[4])), detail::load_xyz(y + 3 * std::size_t(q[5])),
+                         detail::load_xyz(y + 3 * std::size_t(q[6])), detail::load_xyz(y + 3 * std::size_t(q[7])), a1, b1,
+                         d1);
+      detail::store8(c.yx + g, a0, a1);
+      detail::store8(c.yy + g, b0, b1);
+      detail::store8(c.yz + g, d0, d1);
+      // Their reference points (x y z V), one aligned load each.
+      auto point = [&](int m) { return _mm256_load_pd(&reference[q[m]].x); };
+      detail::transpose4(point(0), point(1), point(2), point(3), a0, b0, d0, f0);
+      detail::transpose4(point(4), point(5), point(6), point(7), a1, b1, d1, f1);
+      detail::store8(c.xx + g, a0, a1);
+      detail::store8(c.xy + g, b0, b1);
+      detail::store8(c.xz + g, d0, d1);
+      detail::store8(c.v + g, f0, f1);
     }
     return;
   }
 #endif
   for (int l = 0; l < n; ++l) {
-    const std::size_t j = 3 * std::size_t(nb[l]);
-    c.yx[l] = y[j], c.yy[l] = y[j + 1], c.yz[l] = y[j + 2];
-    c.xx[l] = x[j], c.xy[l] = x[j + 1], c.xz[l] = x[j + 2];
+    const std::size_t j = nb[l];
+    c.yx[l] = y[3 * j], c.yy[l] = y[3 * j + 1], c.yz[l] = y[3 * j + 2];
+    const ReferencePoint& p = reference[j];
+    c.xx[l] = p.x, c.xy[l] = p.y, c.xz[l] = p.z, c.v[l] = p.volume;
   }
 }
 

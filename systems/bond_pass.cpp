@@ -71,7 +71,7 @@ void bond_pass(WorldState& w, const std::vector<Vec3>& y_vec, std::vector<Vec3>&
       ChunkPositions cp;
       ChunkEnds ce;
       auto gather = [&](std::size_t k, int n) {
-        gather_positions(bs.y, bs.x, bs.neighbor + k, n, cp);
+        gather_positions(bs.y, bs.reference, bs.neighbor + k, n, cp);
         gather_ends<kPlastic || kFracture>(ends, bs.neighbor + k, n, ce);
       };
       auto lane = [=, &g_i, &fx, &fy, &fz, &alive_lanes, &breaks_lanes, &cp, &ce](std::size_t k, int l,

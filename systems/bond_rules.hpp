@@ -414,7 +414,7 @@ inline T sum_lanes(const T (&lanes)[kBondLanes]) {
 // pass). Shapes: offsets particles + 1; neighbor, alive, plastic, plastic_mirror, break_scale one
 // entry per directed bond k (CSR: particle i owns [offsets[i], offsets[i+1]); plastic and
 // break_scale null when the world has none); y and x 3 doubles per particle (current and reference
-// positions, x y z); horizon and the anisotropy metric GᵀG per particle.
+// positions, x y z); horizon, the anisotropy metric GᵀG and the packed reference point per particle.
 template <bool kMutable>
 struct BondStreams {
   using Plastic = std::conditional_t<kMutable, float, const float>;
@@ -429,6 +429,7 @@ struct BondStreams {
   const float* break_scale;  // Bonds::break_scale (null: 1 for every bond)
   const double* horizon;     // δ per particle
   const AnisotropyMetric* metric;  // GᵀG per particle (null in an isotropic world)
+  const ReferencePoint* reference;  // x and V per particle, packed (ParticleModel::reference_point)
 
   // Particle i's end of its bonds, in component form. A lane then forms its bond's vectors as
   // dy = y[3j + c] − o.y_c and ξ = x[3j + c] − o.x_c in the kernel's own body: returned from a helper
@@ -464,7 +465,8 @@ inline BondStreams<!std::is_const_v<World>> bond_streams(World& w, const std::ve
           w.particles.reference_position.data()->data(),
           b.break_scale.empty() ? nullptr : b.break_scale.data(),
           w.model.horizon.data(),
-          w.model.anisotropy_metric.data()};
+          w.model.anisotropy_metric.data(),
+          w.model.reference_point.data()};
 }
 
 // Runtime model flags to template flags, written once for every bond kernel: calls

@@ -16,7 +16,6 @@ namespace perifx::systems {
 void compute_dilatation(const WorldState& w, const std::vector<Vec3>& y_vec, std::vector<double>& theta,
                         std::vector<double>& coupling) {
   const auto bs = bond_streams(w, y_vec);
-  const double* const volume = w.particles.volume.data();
   const auto& md = w.model;
   const InfluenceRamp ramp = influence_ramp(w);
   dispatch_flags([&](auto aniso) {
@@ -32,19 +31,18 @@ void compute_dilatation(const WorldState& w, const std::vector<Vec3>& y_vec, std
         const double delta_i = md.horizon[i];
         double sum[kBondLanes] = {};
         ChunkPositions c;  // the chunk's far ends (bond_gather.hpp)
-        auto gather = [&](std::size_t k, int n) { gather_positions(bs.y, bs.x, bs.neighbor + k, n, c); };
+        auto gather = [&](std::size_t k, int n) { gather_positions(bs.y, bs.reference, bs.neighbor + k, n, c); };
         // Lane-strided so that the bond loop runs as SIMD with a fixed summation order (bond_rules.hpp).
         // ω e Λ = (δ̃_i/ℓ)(|y_j−y_i| − |ξ|)(y_j−y_i)·ξ/(|y_j−y_i| |ξ|): one division per bond. A
         // collapsed bond has no direction.
-        auto lane = [=, &sum, &g_i, &c](std::size_t k, int l, std::uint64_t is_alive) {
-          const std::size_t j = bs.neighbor[k];
+        auto lane = [=, &sum, &g_i, &c](std::size_t, int l, std::uint64_t is_alive) {
           const double dyx = c.yx[l] - o.yx, dyy = c.yy[l] - o.yy, dyz = c.yz[l] - o.yz;
           const double dxx = c.xx[l] - o.xx, dxy = c.xy[l] - o.xy, dxz = c.xz[l] - o.xz;
           const double r = reference_length(dxx, dxy, dxz);
           const double ell = weighted_length<kAnisotropic>(g_i, r, dxx, dxy, dxz);
           const double dot = dyx * dxx + dyy * dxy + dyz * dxz;
           const double len = std::sqrt(dyx * dyx + dyy * dyy + dyz * dyz);
-          const double term = ramped_horizon(delta_i, r, ramp) * (len - r) * dot * volume[j] / (len * r * ell);
+          const double term = ramped_horizon(delta_i, r, ramp) * (len - r) * dot * c.v[l] / (len * r * ell);
           sum[l] += (is_alive != 0) & (len > 0.0) ? term : 0.0;
         };
         for_each_gathered_bond_lane(bs.offsets[i], bs.offsets[i + 1], bs.alive, gather, lane, [](std::size_t, int) {},

@@ -86,7 +86,6 @@ std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only
                              FamilyMoments* moments, const FamilyFit* prior = nullptr) {
   static_assert(kN || !kRobust);
   const auto bs = bond_streams(w, w.particles.position);
-  const double* const volume = w.particles.volume.data();
   const double* const v = w.particles.velocity.data()->data();
   const auto o = bs.origin(p);
   const double vx = kRate ? v[3 * p] : 0.0, vy = kRate ? v[3 * p + 1] : 0.0, vz = kRate ? v[3 * p + 2] : 0.0;
@@ -107,10 +106,9 @@ std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only
   constexpr double s2 = robust_residual_scale * robust_residual_scale;
   // The chunk's far ends in lane order (bond_gather.hpp: positions by load + transpose).
   ChunkPositions cp;
-  alignas(64) double vol[kBondLanes], cv[3][kBondLanes];
+  alignas(64) double cv[3][kBondLanes];
   auto gather = [&](std::size_t k, int n) {
-    gather_positions(bs.y, bs.x, bs.neighbor + k, n, cp);
-    for (int l = 0; l < n; ++l) vol[l] = volume[bs.neighbor[k + static_cast<std::size_t>(l)]];
+    gather_positions(bs.y, bs.reference, bs.neighbor + k, n, cp);
     if constexpr (kRate)
       for (int l = 0; l < n; ++l) {
         const std::size_t j = 3 * std::size_t(bs.neighbor[k + static_cast<std::size_t>(l)]);
@@ -119,14 +117,14 @@ std::uint32_t family_tensors(const WorldState& w, std::size_t p, bool alive_only
   };
   // Always inlined: grown by the moments and the residual weight, GCC 12 stopped inlining it, and the
   // lane loop then ran scalar (the per-frame vertex pass took 4× as long).
-  auto lane = [=, &k6, &n9, &r9, &m10, &count, &g_p, &cp, &vol, &cv, &pc, &pf](
+  auto lane = [=, &k6, &n9, &r9, &m10, &count, &g_p, &cp, &cv, &pc, &pf](
                   std::size_t, int l, std::uint64_t is_alive) __attribute__((always_inline)) {
     const double dx[3] = {cp.xx[l] - o.xx, cp.xy[l] - o.xy, cp.xz[l] - o.xz};
     const double r = reference_length(dx[0], dx[1], dx[2]);
     const double use = static_cast<double>((is_alive | keep_dead) != 0);
     [[maybe_unused]] const double dy[3] = {cp.yx[l] - o.yx, cp.yy[l] - o.yy, cp.yz[l] - o.yz};  // η (kN)
     double weight =
-        vol[l] * ramped_horizon(delta, r, ramp) / weighted_length<kAnisotropic>(g_p, r, dx[0], dx[1], dx[2]) * use;
+        cp.v[l] * ramped_horizon(delta, r, ramp) / weighted_length<kAnisotropic>(g_p, r, dx[0], dx[1], dx[2]) * use;
     if constexpr (kRobust) {
       double res2 = 0.0;
       for (int a = 0; a < 3; ++a) {

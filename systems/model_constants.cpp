@@ -23,6 +23,8 @@
 // Writes: model.dilatation_scale, model.a4, model.b4, model.beta, model.damping and the material's
 //         inelastic constants per particle (yield_extension = √(2Ψ0)/(b4 δ), plastic_cap, critical_stretch,
 //         damage_alpha).
+// pack_reference_points (set-up, before the families): model.reference_point, a copy of
+// particles.reference_position and volume packed per particle for the bond kernels' gathers.
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -106,6 +108,16 @@ void mark_anisotropic_families(WorldState& w) {
     for (std::uint32_t k = b.offsets[i]; form == RowForm::shared_metric && k < b.offsets[i + 1]; ++k)
       if (std::memcmp(&metric[i], &metric[b.neighbor[k]], sizeof(AnisotropyMetric)) != 0) form = RowForm::anisotropic;
     family[i] = static_cast<std::uint8_t>(form);
+  }, 4096);
+}
+
+void pack_reference_points(WorldState& w) {
+  const auto& p = w.particles;
+  auto& packed = w.model.reference_point;
+  packed.resize(p.count());
+  parallel_for_each(p.count(), [&](std::size_t i) {
+    const Vec3& x = p.reference_position[i];
+    packed[i] = ReferencePoint{x.x(), x.y(), x.z(), p.volume[i]};
   }, 4096);
 }
 

@@ -31,7 +31,10 @@ void build_families(WorldState& world, const std::vector<std::array<std::int32_t
 // initial_cracks.cpp: removes the bonds whose reference segment crosses a crack polygon (both
 // directions); returns the number of directed bonds removed.
 std::size_t remove_cracked_bonds(WorldState& world, const std::vector<scene::Crack>& cracks);
-// model_constants.cpp: per-particle a, b, θ scale and β for the paper or discrete normalization.
+// model_constants.cpp: ParticleModel::reference_point from particles.reference_position and volume
+// (set-up, once the particles are placed and ordered; the bond kernels gather it) ...
+void pack_reference_points(WorldState& world);
+// ... and per-particle a, b, θ scale and β for the paper or discrete normalization.
 void compute_model_constants(WorldState& world);
 // ParticleModel::anisotropic_family from the materials and the bonds (after build_families).
 void mark_anisotropic_families(WorldState& world);

@@ -155,6 +155,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     return world;
   }
   scheduler.execute([&] {
+    systems::pack_reference_points(w);
     systems::build_families(w, adjacency);
     systems::remove_cracked_bonds(w, scene.cracks);
     systems::mark_anisotropic_families(w);

@@ -40,11 +40,13 @@ bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; 
 
 TEST_CASE("bond gathers hand every lane the far end's own doubles, and read nothing past the arrays") {
   constexpr std::size_t n = 37;
-  GuardedArray y(3 * n), x(3 * n);
+  GuardedArray y(3 * n), x(4 * n);  // x: one ReferencePoint (x y z V) per particle
   std::vector<BondEnd> ends(n);
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> value(-1.0, 1.0);
-  for (std::size_t c = 0; c < 3 * n; ++c) y.data[c] = value(rng), x.data[c] = value(rng);
+  for (std::size_t c = 0; c < 3 * n; ++c) y.data[c] = value(rng);
+  for (std::size_t c = 0; c < 4 * n; ++c) x.data[c] = value(rng);
+  const auto* const reference = reinterpret_cast<const ReferencePoint*>(x.data);  // 32-byte aligned: ends at a page
   for (auto& e : ends)
     e = BondEnd{value(rng), value(rng), value(rng), value(rng), value(rng), value(rng), value(rng), value(rng)};
   // A family: the last particle (whose doubles end the guarded arrays) in several lanes, the first,
@@ -64,7 +66,7 @@ TEST_CASE("bond gathers hand every lane the far end's own doubles, and read noth
       CAPTURE(k);
       chunks.emplace_back(k, lanes);
       ChunkPositions p;
-      gather_positions(y.data, x.data, nb.data() + k, lanes, p);
+      gather_positions(y.data, reference, nb.data() + k, lanes, p);
       ChunkEnds e;
       gather_ends<true>(ends.data(), nb.data() + k, lanes, e);
       ChunkEnds elastic;
@@ -75,9 +77,10 @@ TEST_CASE("bond gathers hand every lane the far end's own doubles, and read noth
         CHECK(same_bits(p.yx[l], y.data[3 * j]));
         CHECK(same_bits(p.yy[l], y.data[3 * j + 1]));
         CHECK(same_bits(p.yz[l], y.data[3 * j + 2]));
-        CHECK(same_bits(p.xx[l], x.data[3 * j]));
-        CHECK(same_bits(p.xy[l], x.data[3 * j + 1]));
-        CHECK(same_bits(p.xz[l], x.data[3 * j + 2]));
+        CHECK(same_bits(p.xx[l], x.data[4 * j]));
+        CHECK(same_bits(p.xy[l], x.data[4 * j + 1]));
+        CHECK(same_bits(p.xz[l], x.data[4 * j + 2]));
+        CHECK(same_bits(p.v[l], x.data[4 * j + 3]));
         for (const ChunkEnds* c : {&e, &elastic}) {
           CHECK(same_bits(c->coupling[l], ends[j].coupling));
           CHECK(same_bits(c->b4[l], ends[j].b4));
