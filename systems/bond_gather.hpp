@@ -97,6 +97,24 @@ inline void store8(double* dst, __m256d lo, __m256d hi) {
   _mm256_store_pd(dst + 4, hi);
 #endif
 }
+#if defined(__AVX512F__)
+// Eight rows of 4 doubles (rows m and m + 2 of each group of four in one 512-bit vector: z0 = r0|r2,
+// z1 = r1|r3, z2 = r4|r6, z3 = r5|r7) to four 8-lane columns c0..c3, stored at dst[f] + 0..8 (64-byte
+// aligned). Four in-lane unpacks and one cross-lane shuffle per column: 8 shuffles for 8 rows, against
+// 16 for two 4 × 4 transposes and 4 more to join their halves (bench/README.md, "Eight rows at once").
+// kColumns < 4 leaves out the last columns (x y z rows).
+template <int kColumns>
+inline void transpose8_store(__m512d z0, __m512d z1, __m512d z2, __m512d z3, double* const (&dst)[kColumns]) {
+  const __m512d t0 = _mm512_unpacklo_pd(z0, z1), t2 = _mm512_unpacklo_pd(z2, z3);  // a and c of each row
+  const __m512d t1 = _mm512_unpackhi_pd(z0, z1), t3 = _mm512_unpackhi_pd(z2, z3);  // b and d
+  _mm512_store_pd(dst[0], _mm512_shuffle_f64x2(t0, t2, 0x88));
+  _mm512_store_pd(dst[1], _mm512_shuffle_f64x2(t1, t3, 0x88));
+  if constexpr (kColumns > 2) _mm512_store_pd(dst[2], _mm512_shuffle_f64x2(t0, t2, 0xdd));
+  if constexpr (kColumns > 3) _mm512_store_pd(dst[3], _mm512_shuffle_f64x2(t1, t3, 0xdd));
+}
+// Two rows of 4 doubles as one 512-bit vector: lo in lanes 0–3, hi in 4–7.
+inline __m512d pair(__m256d lo, __m256d hi) { return _mm512_insertf64x4(_mm512_castpd256_pd512(lo), hi, 1); }
+#endif
 }  // namespace detail
 #endif
 
@@ -107,6 +125,20 @@ inline void store8(double* dst, __m256d lo, __m256d hi) {
                                                     const std::uint32_t* nb, int n, ChunkPositions& c) {
 #ifdef PERIFX_BOND_GATHER_AVX
   if (n % 8 == 0) {  // kBondLanes, or a 16-lane family's tail of exactly 8
+#if defined(__AVX512F__)
+    for (int g = 0; g < n; g += 8) {
+      const std::uint32_t* q = nb + g;
+      auto row = [&](int m) { return detail::load_xyz(y + 3 * std::size_t(q[m])); };
+      auto point = [&](int m) { return _mm256_load_pd(&reference[q[m]].x); };
+      double* const yd[3] = {c.yx + g, c.yy + g, c.yz + g};
+      detail::transpose8_store<3>(detail::pair(row(0), row(2)), detail::pair(row(1), row(3)),
+                                  detail::pair(row(4), row(6)), detail::pair(row(5), row(7)), yd);
+      double* const xd[4] = {c.xx + g, c.xy + g, c.xz + g, c.v + g};
+      detail::transpose8_store<4>(detail::pair(point(0), point(2)), detail::pair(point(1), point(3)),
+                                  detail::pair(point(4), point(6)), detail::pair(point(5), point(7)), xd);
+    }
+    return;
+#endif
     for (int g = 0; g < n; g += 8) {
       const std::uint32_t* q = nb + g;
       // Eight neighbours' y rows (x y z) into lanes g..g+7.
@@ -148,6 +180,23 @@ template <bool kInelastic>
                 "the two halves of BondEnd are loaded as four doubles each");
 #ifdef PERIFX_BOND_GATHER_AVX
   if (n % 8 == 0) {  // kBondLanes, or a 16-lane family's tail of exactly 8
+#if defined(__AVX512F__)
+    for (int g = 0; g < n; g += 8) {
+      const double* e[8];
+      for (int m = 0; m < 8; ++m) e[m] = &ends[nb[g + m]].coupling;
+      auto half = [&](int m, int h) { return _mm256_load_pd(e[m] + 4 * h); };
+      double* const elastic[4] = {c.coupling + g, c.b4 + g, c.volume + g, c.horizon + g};
+      detail::transpose8_store<4>(detail::pair(half(0, 0), half(2, 0)), detail::pair(half(1, 0), half(3, 0)),
+                                  detail::pair(half(4, 0), half(6, 0)), detail::pair(half(5, 0), half(7, 0)), elastic);
+      if constexpr (kInelastic) {
+        double* const inelastic[4] = {c.beta_theta + g, c.yield_extension + g, c.plastic_cap + g, c.break_extension + g};
+        detail::transpose8_store<4>(detail::pair(half(0, 1), half(2, 1)), detail::pair(half(1, 1), half(3, 1)),
+                                    detail::pair(half(4, 1), half(6, 1)), detail::pair(half(5, 1), half(7, 1)),
+                                    inelastic);
+      }
+    }
+    return;
+#endif
     for (int g = 0; g < n; g += 8) {
       const double* e[8];
       for (int m = 0; m < 8; ++m) e[m] = &ends[nb[g + m]].coupling;
