@@ -1,9 +1,9 @@
 // Held rotations system (systems/README.md §6.5): the step state behind VertexMotion::deformation's
 // fallback. A particle whose alive family cannot give a deformation gradient (fewer than 4 alive
 // bonds, or the shape tensor K ill-conditioned; family_fits below) moves its vertices rigidly with a
-// held rotation R_p, and R_p must follow the particle every step, not only when the mesh is read:
+// held rotation R_p, and R_p must follow the particle as it steps, not only when the mesh is read:
 // otherwise the surface would depend on how often it is read.
-// Per particle p, every step, only for "tracked" particles (a fallback family, or at least one broken
+// Per particle p, in steps as below, only for "tracked" particles (a fallback family, or at least one broken
 // bond: the only ones that are or may become fallback; intact particles with a good family are skipped
 // at the cost of one byte and one counter test):
 //   K = Σ ω ξ⊗ξ V_j,  N = Σ ω η⊗ξ V_j over the alive bonds (as mesh_vertices.cpp);
@@ -14,15 +14,20 @@
 // of F over its whole original family at the current positions.
 // Whether a family fits depends only on its alive set (K is built from reference quantities), which
 // changes only when one of its bonds breaks. So a tracked particle is evaluated in full only in a step
-// where its broken-bond count changed; otherwise a fitting one refreshes S_p only every
-// kRefreshSteps steps (staggered by index: p ≡ step mod kRefreshSteps), since S_p serves only as R_old
-// at the step its family stops fitting, and a poor one with no alive bond keeps S_p (a lone particle
-// keeps its rotation). Only poor families with alive bonds turn every step. In shattered glass most
-// particles are tracked and fit, and evaluating all of them every step took 30–45 % of the step.
+// where its broken-bond count changed; otherwise it refreshes S_p only every kRefreshSteps steps
+// (staggered by index: p ≡ step mod kRefreshSteps), and a poor one with no alive bond keeps S_p (a lone
+// particle keeps its rotation). A fitting family's S_p serves only as R_old at the step its family
+// stops fitting. A poor family's S_p is the rendered rotation and its own next prior: refreshed every
+// kRefreshSteps steps it lags the piece by at most kRefreshSteps − 1 steps (7 µs at the glass walls'
+// step: 7e-3 rad for a fragment spinning at 1e3 rad/s), and the prior's weight
+// (μ = 1e-3 tr K) makes the fit depend on that lag only through μ. Still the same for any read rate
+// and thread count. In shattered glass most particles are tracked, and evaluating every tracked one
+// every step took 30–45 % of the step; poor families turning every step were still 61 % of the
+// evaluations in the glass-wall preview.
 // S_p (EmbeddedMesh::held_deformation) is part of the state (checkpointed); the per-frame vertex pass
 // (mesh_vertices.cpp) reads it for the fallback particles and is otherwise a pure function of the state.
-// Cost per step: bonds of the tracked particles with new breaks or a poor family, and of 1/kRefreshSteps
-// of the other tracked ones (two outer products each); nothing for intact ones.
+// Cost per step: bonds of the tracked particles with new breaks, and of 1/kRefreshSteps of the other
+// tracked ones (two outer products each); nothing for intact ones.
 // Parallel over particles, each writes its own S_p: deterministic for any thread count.
 // Reads:  position, bond_alive, damage (broken_bonds), mesh.   Writes: mesh (held_deformation, held_tracked).
 #include <algorithm>
@@ -257,10 +262,10 @@ void update_held_rotations(WorldState& w) {
     if (!w.owns(p)) return;  // a distributed run's ghost: its owner steps it
     if (!e.held_tracked[p] && !(counted && broken[p] > 0)) return;  // intact, family fits
     if (counted && broken[p] == e.held_broken_seen[p]) {  // alive set unchanged since the last evaluation
-      // S_p is only R_old: refreshed in turn, by whole-world index (a distributed run's local index differs)
-      const std::size_t turn = w.global_index.empty() ? p : w.global_index[p];
-      if (e.held_fits[p] && turn % kRefreshSteps != phase) return;
       if (!e.held_fits[p] && broken[p] >= initial[p]) return;     // no alive bond: keeps its rotation
+      // Refreshed in turn, by whole-world index (a distributed run's local index differs).
+      const std::size_t turn = w.global_index.empty() ? p : w.global_index[p];
+      if (turn % kRefreshSteps != phase) return;
     }
     step_particle(w, p);
   }, 256);
