@@ -21,7 +21,8 @@ struct ContactPairs {
   double skin = 0.0;                       // m
   std::vector<std::uint32_t> offsets;      // particles + 1
   std::vector<std::uint32_t> neighbor;     // candidates of i: neighbor[offsets[i], offsets[i+1])
-  std::vector<std::uint32_t> count;        // particles: scratch for the build (candidates per particle)
+  std::vector<std::uint32_t> count;        // particles: scratch for the build (candidates per particle;
+                                           // after an update, 1 for a row to re-sort)
   std::vector<std::uint32_t> scratch;      // particles × kScratchPerParticle: a search's first pass
                                            // keeps up to that many finds per searched particle here,
                                            // so only particles with more need a second search. The
