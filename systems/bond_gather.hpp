@@ -8,8 +8,8 @@
 // with one 256-bit load (masked to three doubles, so the last particle reads nothing past its array),
 // its reference point (x y z V, ParticleModel::reference_point) and each half of its BondEnd line with
 // one aligned load; a transpose in registers turns the rows into one vector per component (with
-// AVX-512 eight neighbours' rows at once in 512-bit vectors, else four at a time). The values are the same doubles either way, so the
-// kernels' results are unchanged to the bit; the scalar path (a CPU without AVX, and the tail of a
+// AVX-512 eight neighbours' rows at once in 512-bit vectors, else four at a time). The values are the
+// same doubles either way, so the kernels' results are unchanged to the bit; the scalar path (a CPU without AVX, and the tail of a
 // family) fills the same arrays one by one. Eight lanes are stored at a time, as one 512-bit vector
 // with AVX-512: the lane loop then reads each array as 512-bit vectors (kBondLanes is 16 there), and
 // a load that spans two narrower stores cannot be forwarded from them; it waits until they reach the
