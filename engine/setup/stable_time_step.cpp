@@ -107,7 +107,9 @@ double stable_time_step_bound(const WorldState& w) {
   const auto& md = w.model;
   const auto bs = systems::bond_streams(w, x);
   const systems::InfluenceRamp ramp = systems::influence_ramp(w);
-  // Row sums over i's alive bonds of value[j] ω n nᵀ (six: xx yy zz xy xz yz), and with kOwn also of
+  // Row sums over every bond listed in i's row, broken ones too (the flag is not read: at set-up only
+  // initial cracks have broken bonds, and counting them makes the bound stiffer, so the step smaller,
+  // which is safe), of value[j] ω n nᵀ (six: xx yy zz xy xz yz), and with kOwn also of
   // value[j] ω (S) and value[j] ω n (g). ω is i's weight (δ̃_i/ℓ_i, kOwn) or j's (δ̃_j/ℓ_j). Lane-strided
   // like the bond kernels (for_each_bond_lane: SIMD for isotropic worlds, fixed summation order).
   struct RowSums {
