@@ -21,6 +21,9 @@ struct ContactPairs {
   double skin = 0.0;                       // m
   std::vector<std::uint32_t> offsets;      // particles + 1
   std::vector<std::uint32_t> neighbor;     // candidates of i: neighbor[offsets[i], offsets[i+1])
+  std::vector<std::uint32_t> near_count;   // particles: the row's first near_count entries are its near
+                                           // part (systems/contact.cpp: pairs that can touch before
+                                           // either end is searched again), the rest its far part
   std::vector<std::uint32_t> count;        // particles: scratch for the build (candidates per particle;
                                            // after an update, 1 for a row to re-sort)
   std::vector<std::uint32_t> scratch;      // particles × kScratchPerParticle: a search's first pass
@@ -28,7 +31,7 @@ struct ContactPairs {
                                            // so only particles with more need a second search. The
                                            // full rebuild's forward half-search (a few finds each) uses
                                            // one row per particle; the moved-particle update (at most
-                                           // particles/8 of them) two rows per moved particle.
+                                           // particles/16 of them) two rows per moved particle.
   static constexpr std::uint32_t kScratchPerParticle = 16;
   std::vector<Vec3> built_position;        // per particle: position minus the centroid of all
                                            // particles, at the particle's last search, m
@@ -37,7 +40,8 @@ struct ContactPairs {
   // step's test), moved_list the moved particles ascending, moved_offsets/moved_neighbor their new
   // candidates (CSR over moved_list), found_by[j] how many moved particles found unmoved j, then its
   // write cursor.
-  std::vector<std::uint8_t> moved;
+  // partner_moved[j] = 1 during an update when j's row holds a moved particle (all 0 between updates).
+  std::vector<std::uint8_t> moved, partner_moved;
   std::vector<std::uint32_t> moved_list, moved_offsets, moved_neighbor, found_by;
   // Build scratch, one row of `particles` entries per worker thread slot: while thread t builds the
   // list of particle i it marks i's alive bond partners j with bonded_stamp[t·n + j] = stamp, so

@@ -229,6 +229,7 @@ void for_each_array(W& w, F&& f) {
   f(K::contact, "contact.grid.sorted_position", c.grid.sorted_position);
   f(K::contact, "contact.pairs.offsets", c.pairs.offsets);
   f(K::contact, "contact.pairs.neighbor", c.pairs.neighbor);
+  f(K::contact, "contact.pairs.near_count", c.pairs.near_count);
   f(K::contact, "contact.pairs.count", c.pairs.count);
   f(K::contact, "contact.pairs.scratch", c.pairs.scratch);
   f(K::contact, "contact.pairs.offsets_next", c.pairs.offsets_next);
@@ -237,6 +238,7 @@ void for_each_array(W& w, F&& f) {
   f(K::contact, "contact.pairs.bonded_stamp", c.pairs.bonded_stamp);
   f(K::contact, "contact.pairs.alive_at_build", c.pairs.alive_at_build);
   f(K::contact, "contact.pairs.moved", c.pairs.moved);
+  f(K::contact, "contact.pairs.partner_moved", c.pairs.partner_moved);
   f(K::contact, "contact.pairs.moved_list", c.pairs.moved_list);
   f(K::contact, "contact.pairs.moved_offsets", c.pairs.moved_offsets);
   f(K::contact, "contact.pairs.moved_neighbor", c.pairs.moved_neighbor);

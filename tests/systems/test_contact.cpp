@@ -265,7 +265,7 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
   REQUIRE(w.contact.enabled);
   const SystemDecl contact = systems::contact_system(w);
   const std::size_t n = w.particles.count();
-  std::size_t checks = 0, missing = 0, close_pairs = 0, one_sided = 0, duplicated = 0;
+  std::size_t checks = 0, missing = 0, close_pairs = 0, one_sided = 0, duplicated = 0, touching = 0, far_touching = 0;
   const int steps = 400;
   for (int s = 0; s < steps; ++s) {
     world.step();
@@ -277,7 +277,15 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
       std::vector<std::uint32_t> listed(pr.neighbor.begin() + pr.offsets[i], pr.neighbor.begin() + pr.offsets[i + 1]);
       std::sort(listed.begin(), listed.end());
       duplicated += std::adjacent_find(listed.begin(), listed.end()) != listed.end();  // a pair twice: twice the force
+      // The forces read only a row's near part: every pair within its own (uncapped) d_c must be there.
+      const auto near_first = pr.neighbor.begin() + pr.offsets[i], near_last = near_first + pr.near_count[i];
       for (std::uint32_t j = 0; j < n; ++j) {
+        const double dc = w.contact.distance_factor * 0.5 * (w.contact.size[i] + w.contact.size[j]);
+        const double d2 = (w.particles.position[j] - w.particles.position[i]).squaredNorm();
+        if (j != i && d2 < dc * dc && std::binary_search(listed.begin(), listed.end(), j)) {
+          ++touching;
+          far_touching += std::find(near_first, near_last, j) == near_last;
+        }
         if (j == i || (w.particles.position[j] - w.particles.position[i]).squaredNorm() >= reach2) continue;
         const auto first = w.bonds.neighbor.begin() + w.bonds.offsets[i], last = w.bonds.neighbor.begin() + w.bonds.offsets[i + 1];
         const auto it = std::lower_bound(first, last, j);
@@ -298,12 +306,15 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
                  << " moved-particle updates (" << w.contact.pairs.searched << " searches) and "
                  << w.contact.pairs.additions << " additions of broken pairs in " << steps
                  << " steps; broken bonds " << world.bond_count() - world.alive_bond_count()
-                 << "; one-sided entries " << one_sided << "; lists with a pair twice " << duplicated);
+                 << "; one-sided entries " << one_sided << "; lists with a pair twice " << duplicated
+                 << "; listed pairs within d_c " << touching << ", in the far part " << far_touching);
   CHECK(world.bond_count() > world.alive_bond_count());  // bonds broke, so the list had to follow
   CHECK(close_pairs > 0);
   CHECK(missing == 0);
   CHECK(one_sided == 0);
   CHECK(duplicated == 0);
+  CHECK(touching > 0);
+  CHECK(far_touching == 0);
   CHECK(w.contact.pairs.builds > 1);           // full rebuilds (the half search) after the first
   CHECK(w.contact.pairs.partial_updates > 0);  // the moved-particle update was exercised
 }
