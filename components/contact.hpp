@@ -24,8 +24,7 @@ struct ContactPairs {
   std::vector<std::uint32_t> near_count;   // particles: the row's first near_count entries are its near
                                            // part (systems/contact.cpp: pairs that can touch before
                                            // either end is searched again), the rest its far part
-  std::vector<std::uint32_t> count;        // particles: scratch for the build (candidates per particle;
-                                           // after an update, 1 for a row to re-sort)
+  std::vector<std::uint32_t> count;        // particles: scratch for the build (candidates per particle)
   std::vector<std::uint32_t> scratch;      // particles × kScratchPerParticle: a search's first pass
                                            // keeps up to that many finds per searched particle here,
                                            // so only particles with more need a second search. The
@@ -41,7 +40,8 @@ struct ContactPairs {
   // candidates (CSR over moved_list), found_by[j] how many moved particles found unmoved j, then its
   // write cursor.
   // partner_moved[j] = 1 during an update when j's row holds a moved particle (all 0 between updates).
-  std::vector<std::uint8_t> moved, partner_moved;
+  // resort[i] = 1 when an update appended to i's row, which sort_rows then splits and sorts again.
+  std::vector<std::uint8_t> moved, partner_moved, resort;
   std::vector<std::uint32_t> moved_list, moved_offsets, moved_neighbor, found_by;
   // Build scratch, one row of `particles` entries per worker thread slot: while thread t builds the
   // list of particle i it marks i's alive bond partners j with bonded_stamp[t·n + j] = stamp, so

@@ -239,6 +239,7 @@ void for_each_array(W& w, F&& f) {
   f(K::contact, "contact.pairs.alive_at_build", c.pairs.alive_at_build);
   f(K::contact, "contact.pairs.moved", c.pairs.moved);
   f(K::contact, "contact.pairs.partner_moved", c.pairs.partner_moved);
+  f(K::contact, "contact.pairs.resort", c.pairs.resort);
   f(K::contact, "contact.pairs.moved_list", c.pairs.moved_list);
   f(K::contact, "contact.pairs.moved_offsets", c.pairs.moved_offsets);
   f(K::contact, "contact.pairs.moved_neighbor", c.pairs.moved_neighbor);

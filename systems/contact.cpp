@@ -256,7 +256,7 @@ bool is_near(const WorldState& w, std::uint32_t i, std::uint32_t j) {
 // depend on how the list was built or updated, on which rank the particle lives, or on whether the run
 // was resumed from a checkpoint (which rebuilds the list). Rows are short and mostly sorted already
 // (an update keeps the order of what it keeps): insertion sort, one row per task. After an update
-// (only_marked) only the rows it marked in pr.count are sorted: the others kept a subset of a sorted
+// (only_marked) only the rows it marked in pr.resort are sorted: the others kept a subset of a sorted
 // row. Passing over every row took a sixth of contact's time in the shattered glass preview, which
 // updates its list nearly every step.
 // A row it sorts it first splits into its near and far part (is_near; pr.near_count), each then sorted.
@@ -273,7 +273,7 @@ void sort_rows(WorldState& w, bool only_marked) {
     }
   };
   parallel_for_each(w.particles.count(), [&](std::size_t i) {
-    if (only_marked && !pr.count[i]) return;
+    if (only_marked && !pr.resort[i]) return;
     std::uint32_t* row = pr.neighbor.data() + pr.offsets[i];
     const std::uint32_t length = pr.offsets[i + 1] - pr.offsets[i];
     const auto ii = static_cast<std::uint32_t>(i);
@@ -365,8 +365,8 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
   for (std::size_t i = 0; i < n; ++i) pr.offsets_next[i + 1] = pr.offsets_next[i] + pr.count[i];
   pr.neighbor_next.resize(pr.offsets_next[n]);
   // 4. Fill: unmoved particles' kept pairs (their scatter cursor goes to found_by), moved particles' searches.
-  // count (free once the offsets are summed) becomes "row to re-sort" (sort_rows): a row that keeps
-  // only a subset of its sorted old row is still sorted; one with anything appended is not.
+  // resort marks the rows sort_rows must split and sort: a row that keeps only a subset of its old row
+  // keeps each part sorted; one with anything appended does not.
   parallel_for_each(n, [&](std::size_t j) {
     if (pr.moved[j]) return;
     std::uint32_t q = pr.offsets_next[j];
@@ -385,12 +385,12 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
     if (has_new_breaks(w, j))
       for (std::uint32_t k = b.offsets[j]; k < b.offsets[j + 1]; ++k)
         if (!pr.moved[b.neighbor[k]] && newly_broken_in_reach(w, j, k)) pr.neighbor_next[q++] = b.neighbor[k];
-    pr.count[j] = q != kept_end || pr.found_by[j] != 0;
+    pr.resort[j] = q != kept_end || pr.found_by[j] != 0;
     pr.found_by[j] = q;
   }, 1024);
   parallel_for_each(m, [&](std::size_t a) {
     const std::uint32_t i = pr.moved_list[a];
-    pr.count[i] = 1;  // its search, in grid-visit order
+    pr.resort[i] = 1;  // its search, in grid-visit order
     std::copy(pr.moved_neighbor.begin() + pr.moved_offsets[a], pr.moved_neighbor.begin() + pr.moved_offsets[a + 1],
               pr.neighbor_next.begin() + pr.offsets_next[i]);
     pr.built_position[i] = p.position[i] - centroid;
@@ -505,6 +505,7 @@ void allocate_pairs(WorldState& w) {
   pr.moved_offsets.assign(n + 1, 0);
   pr.found_by.assign(n, 0);
   pr.partner_moved.assign(n, 0);
+  pr.resort.assign(n, 0);
   pr.near_count.assign(n, 0);
   pr.broken_seen.assign(n, 0);
   // One row per worker slot of the arena the step runs in (scene threads, or the machine's).
@@ -580,6 +581,7 @@ void replace_contact_tail(WorldState& w, std::size_t kept) {
   pr.moved.assign(n, 0);
   pr.found_by.assign(n, 0);
   pr.partner_moved.assign(n, 0);
+  pr.resort.assign(n, 0);
   pr.moved_offsets.assign(n + 1, 0);
   pr.moved_list.reserve(n);
   pr.built_position.resize(n, Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));

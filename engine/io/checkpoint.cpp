@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'P', 'E', 'R', 'I', 'F', 'X', 'C', 'K'};
-constexpr std::uint32_t kVersion = 19;  // 2: embedded.held_deformation, embedded.held_tracked;
+constexpr std::uint32_t kVersion = 20;  // 2: embedded.held_deformation, embedded.held_tracked;
                                        // 3: contact moved-particle updates (per-particle search positions);
                                        // 4: no per-bond |ξ|, ω, mirror index; e^p as float (issue 16);
                                        // 5: model.anisotropy_metric (GᵀG per particle);
@@ -35,6 +35,7 @@ constexpr std::uint32_t kVersion = 19;  // 2: embedded.held_deformation, embedde
                                        // 17: embedded.deformation_origin_velocity
                                        // 18: model.reference_point
                                        // 19: contact.pairs.partner_moved, .near_count
+                                       // 20: contact.pairs.resort
 
 // Not saved: worker-slot scratch (sized by the thread count, so a resume on another thread count keeps
 // its own) and the projectiles' per-block contact lists (refilled by every step before any reads).
