@@ -243,11 +243,37 @@ bool newly_broken_in_reach(const WorldState& w, std::size_t i, std::uint32_t k) 
   return was_alive_at_build(w.contact.pairs, k) && !b.alive[k] && (y[b.neighbor[k]] - y[i]).squaredNorm() < reach2;
 }
 
+// d_c of the pair (i, j) before the same-body cap (header): distance_factor·(s_i + s_j)/2, m.
+double contact_distance(const ContactState& c, std::uint32_t i, std::uint32_t j) {
+  return c.distance_factor * (0.5 * (c.size[i] + c.size[j]));
+}
+
+// Copies row i of pr.neighbor to pr.neighbor_next from q on, keeping the entries j with keep(j), and
+// returns the new end. The kept entries of each part stay in that part, in their order (a row that only
+// loses pairs stays split and sorted), and pr.near_count[i] becomes the kept near part's length.
+template <class Keep>
+std::uint32_t copy_row_kept(ContactPairs& pr, std::size_t i, std::uint32_t q, Keep keep) {
+  const std::uint32_t first = q, near_end = pr.offsets[i] + pr.near_count[i];
+  for (std::uint32_t r = pr.offsets[i]; r < near_end; ++r)
+    if (keep(pr.neighbor[r])) pr.neighbor_next[q++] = pr.neighbor[r];
+  pr.near_count[i] = q - first;
+  for (std::uint32_t r = near_end; r < pr.offsets[i + 1]; ++r)
+    if (keep(pr.neighbor[r])) pr.neighbor_next[q++] = pr.neighbor[r];
+  return q;
+}
+
+// Sets partner_moved[j] = value for every j in a moved particle's (old) row: by the list's symmetry,
+// the rows that hold a moved partner.
+void mark_partners_of_moved(ContactPairs& pr, std::uint8_t value) {
+  for (const std::uint32_t i : pr.moved_list)
+    for (std::uint32_t q = pr.offsets[i]; q < pr.offsets[i + 1]; ++q) pr.partner_moved[pr.neighbor[q]] = value;
+}
+
 // Whether j is near i (header): its search position is within d_c,ij + 2h of i's, widened by a relative
 // 1e-6 so that the rounding of positions far from the centroid cannot make a touching pair far.
 bool is_near(const WorldState& w, std::uint32_t i, std::uint32_t j) {
   const auto& c = w.contact;
-  const double reach = (c.distance_factor * (0.5 * (c.size[i] + c.size[j])) + 2.0 * kMoveLimit * c.pairs.skin) * (1.0 + 1e-6);
+  const double reach = (contact_distance(c, i, j) + 2.0 * kMoveLimit * c.pairs.skin) * (1.0 + 1e-6);
   return !((c.pairs.built_position[j] - c.pairs.built_position[i]).squaredNorm() >= reach * reach);  // NaN: near
 }
 
@@ -344,8 +370,7 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
   std::fill(pr.found_by.begin(), pr.found_by.end(), 0u);
   for (std::size_t q = 0; q < pr.moved_neighbor.size(); ++q)
     if (const std::uint32_t j = pr.moved_neighbor[q]; !pr.moved[j]) ++pr.found_by[j];
-  for (const std::uint32_t i : pr.moved_list)
-    for (std::uint32_t q = pr.offsets[i]; q < pr.offsets[i + 1]; ++q) pr.partner_moved[pr.neighbor[q]] = 1;
+  mark_partners_of_moved(pr, 1);
   // 3. New counts and offsets.
   auto kept = [&](std::size_t j) {
     std::uint32_t count = pr.offsets[j + 1] - pr.offsets[j];
@@ -370,13 +395,8 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
   parallel_for_each(n, [&](std::size_t j) {
     if (pr.moved[j]) return;
     std::uint32_t q = pr.offsets_next[j];
-    if (pr.partner_moved[j]) {  // the kept entries of each part stay in that part (their ends did not move)
-      const std::uint32_t near_end = pr.offsets[j] + pr.near_count[j];
-      for (std::uint32_t r = pr.offsets[j]; r < near_end; ++r)
-        if (!pr.moved[pr.neighbor[r]]) pr.neighbor_next[q++] = pr.neighbor[r];
-      pr.near_count[j] = q - pr.offsets_next[j];
-      for (std::uint32_t r = near_end; r < pr.offsets[j + 1]; ++r)
-        if (!pr.moved[pr.neighbor[r]]) pr.neighbor_next[q++] = pr.neighbor[r];
+    if (pr.partner_moved[j]) {  // kept pairs stay in their part: neither end moved
+      q = copy_row_kept(pr, j, q, [&](std::uint32_t r) { return !pr.moved[r]; });
     } else {
       q = static_cast<std::uint32_t>(std::copy(pr.neighbor.begin() + pr.offsets[j], pr.neighbor.begin() + pr.offsets[j + 1],
                                                pr.neighbor_next.begin() + q) - pr.neighbor_next.begin());
@@ -401,8 +421,7 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
   parallel_for_each(n, [&](std::size_t i) {
     if (has_new_breaks(w, i)) take_in_breaks(w, i);
   }, 1024);
-  for (const std::uint32_t i : pr.moved_list)  // partner_moved back to all 0 for the next update
-    for (std::uint32_t q = pr.offsets[i]; q < pr.offsets[i + 1]; ++q) pr.partner_moved[pr.neighbor[q]] = 0;
+  mark_partners_of_moved(pr, 0);  // all 0 again for the next update
   std::swap(pr.offsets, pr.offsets_next);
   std::swap(pr.neighbor, pr.neighbor_next);
   pr.broken_at_build = broken_now;
@@ -562,12 +581,7 @@ void replace_contact_tail(WorldState& w, std::size_t kept) {
   pr.near_count.resize(n, 0);
   for (std::size_t i = 0; i < std::min(kept, n_old); ++i) {
     pr.offsets_next[i] = q;
-    const std::uint32_t near_end = pr.offsets[i] + pr.near_count[i];
-    for (std::uint32_t r = pr.offsets[i]; r < near_end; ++r)
-      if (pr.neighbor[r] < kept) pr.neighbor_next[q++] = pr.neighbor[r];
-    pr.near_count[i] = q - pr.offsets_next[i];
-    for (std::uint32_t r = near_end; r < pr.offsets[i + 1]; ++r)
-      if (pr.neighbor[r] < kept) pr.neighbor_next[q++] = pr.neighbor[r];
+    q = copy_row_kept(pr, i, q, [&](std::uint32_t j) { return j < kept; });
   }
   for (std::size_t i = std::min(kept, n_old); i < n; ++i) pr.near_count[i] = 0;
   for (std::size_t i = std::min(kept, n_old); i <= n; ++i) pr.offsets_next[i] = q;
@@ -624,7 +638,7 @@ SystemDecl contact_system(WorldState& w) {
                 const std::uint32_t j = pr.neighbor[q];
                 const Vec3 r = p.position[j] - yi;
                 const double d2 = r.squaredNorm();
-                double dc = c.distance_factor * (0.5 * (c.size[i] + c.size[j]));
+                double dc = contact_distance(c, i, j);
                 if (d2 >= dc * dc) continue;  // most of the list: out of contact whatever the cap below
                 if (p.body_id[i] == p.body_id[j]) {
                   // Most near same-body pairs are the ends of broken bonds still about their reference
