@@ -555,7 +555,8 @@ std::string profile_table(const RunSummary& summary) {
     in_systems += t.seconds;
   }
   // The rest of the stepping time: graph start-up and hand-over between nodes, the instability
-  // check. Negative when systems ran side by side (their times overlap); shown as 0 then.
+  // check. A profiled step runs one system at a time (Scheduler::set_profiling), so it is not negative
+  // beyond clock rounding; shown as 0 then.
   const double rest = std::max(0.0, summary.wall_seconds - in_systems);
   std::snprintf(line, sizeof line, "%-22s %10.3f %10.4f %7.1f%%\n", "(between systems)", rest, 1e3 * rest / steps,
                 100.0 * rest / wall);

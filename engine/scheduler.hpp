@@ -38,12 +38,13 @@ class Scheduler {
   const std::vector<std::vector<int>>& dependencies() const { return dependencies_; }
   std::string describe() const;  // one line per system: name, reads, writes, depends on
 
-  // Per-system wall time (`perifx run --profile`). When on, each node reads the steady clock before
-  // and after its system and adds the difference to that system's slot. A node runs once per step
-  // and only it writes its slot; wait_for_all orders one step's writes before the next step's and
-  // before profile() reads them, so no atomics are needed. Off by default (two clock reads per
-  // system per step when on).
-  void set_profiling(bool on) { profiling_ = on; }
+  // Per-system wall time (`perifx run --profile`). When on, the graph runs the systems one at a time
+  // in their listed order (make_graph), and each node reads the steady clock before and after its
+  // system and adds the difference to that system's slot. A node runs once per step and only it
+  // writes its slot; wait_for_all orders one step's writes before the next step's and before profile()
+  // reads them, so no atomics are needed. Off by default (two clock reads per system per step when on).
+  // Between steps only (it may rebuild the graph).
+  void set_profiling(bool on);
   bool profiling() const { return profiling_; }
   struct SystemTime {
     std::string name;
@@ -59,7 +60,9 @@ class Scheduler {
   std::unique_ptr<tbb::flow::graph> graph_;
   std::unique_ptr<tbb::flow::broadcast_node<tbb::flow::continue_msg>> start_;
   std::vector<std::unique_ptr<tbb::flow::continue_node<tbb::flow::continue_msg>>> nodes_;
+  void make_graph();
   bool profiling_ = false;
+  bool graph_chained_ = false;          // the graph is the profiling chain (make_graph)
   std::vector<double> seconds_;         // per system, see set_profiling
   std::vector<std::uint64_t> runs_;
 };
