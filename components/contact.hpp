@@ -20,7 +20,11 @@ namespace perifx {
 struct ContactPairs {
   double skin = 0.0;                       // m
   std::vector<std::uint32_t> offsets;      // particles + 1
-  std::vector<std::uint32_t> neighbor;     // candidates of i: neighbor[offsets[i], offsets[i+1])
+  std::vector<std::uint32_t> neighbor;     // candidates of i: neighbor[offsets[i], offsets[i] + length[i]);
+                                           // the row may hold up to offsets[i+1] − offsets[i] (its
+                                           // capacity; the rest is unused), so an update rewrites only
+                                           // the rows it changes, in place
+  std::vector<std::uint32_t> length;       // particles: candidates in the row
   std::vector<std::uint32_t> near_count;   // particles: the row's first near_count entries are its near
                                            // part (systems/contact.cpp: pairs that can touch before
                                            // either end is searched again), the rest its far part
@@ -38,9 +42,10 @@ struct ContactPairs {
   // every earlier update): moved[i] = 1 when i moved more than 0.3 skin since its last search (this
   // step's test), moved_list the moved particles ascending, moved_offsets/moved_neighbor their new
   // candidates (CSR over moved_list), found_by[j] how many moved particles found unmoved j, then its
-  // write cursor.
+  // write cursor (all 0 between updates).
   // partner_moved[j] = 1 during an update when j's row holds a moved particle (all 0 between updates).
-  // resort[i] = 1 when an update appended to i's row, which sort_rows then splits and sorts again.
+  // resort[i] = 1 when an update appended to i's row, which sort_rows then splits and sorts again
+  // (all 0 between updates).
   std::vector<std::uint8_t> moved, partner_moved, resort;
   std::vector<std::uint32_t> moved_list, moved_offsets, moved_neighbor, found_by;
   // Build scratch, one row of `particles` entries per worker thread slot: while thread t builds the
@@ -55,11 +60,13 @@ struct ContactPairs {
                                               // since are the list's only new candidates
   std::vector<std::uint32_t> broken_seen;    // per particle: its broken-bond count as of then, so
                                              // only particles with new breaks scan their bonds
-  std::vector<std::uint32_t> offsets_next, neighbor_next;  // double buffers for adding pairs
+  std::vector<std::uint32_t> offsets_next, neighbor_next;  // scratch: the build's forward half-list,
+                                                           // and a new layout when a row outgrows its capacity
   std::uint64_t additions = 0;             // incremental updates after breaks (diagnostics)
   bool valid = false;                      // false until the first build
   std::uint64_t builds = 0;                // full rebuilds so far (diagnostics)
   std::uint64_t partial_updates = 0;       // updates that searched only the moved particles
+  std::uint64_t layouts = 0;               // updates that laid the rows out anew (a row outgrew its room)
   std::uint64_t searched = 0;              // particles searched by those updates
 };
 

@@ -229,6 +229,7 @@ void for_each_array(W& w, F&& f) {
   f(K::contact, "contact.grid.sorted_position", c.grid.sorted_position);
   f(K::contact, "contact.pairs.offsets", c.pairs.offsets);
   f(K::contact, "contact.pairs.neighbor", c.pairs.neighbor);
+  f(K::contact, "contact.pairs.length", c.pairs.length);
   f(K::contact, "contact.pairs.near_count", c.pairs.near_count);
   f(K::contact, "contact.pairs.count", c.pairs.count);
   f(K::contact, "contact.pairs.scratch", c.pairs.scratch);

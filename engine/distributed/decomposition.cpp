@@ -89,7 +89,7 @@ std::vector<std::uint32_t> current_work(const WorldState& w, std::uint32_t first
     for (std::uint32_t k = b.offsets[i]; k < b.offsets[i + 1]; ++k) alive += b.alive[k] != 0;
     const std::uint32_t held = !tracked.empty() && tracked[i] ? alive / kHeldRotationDivisor : 0u;
     work[m] = alive + static_cast<std::uint32_t>(kParticleWork) + held +
-              (contact ? pr.offsets[i + 1] - pr.offsets[i] : 0u);
+              (contact ? pr.length[i] : 0u);
   }
   return work;
 }

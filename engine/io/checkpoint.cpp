@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'P', 'E', 'R', 'I', 'F', 'X', 'C', 'K'};
-constexpr std::uint32_t kVersion = 20;  // 2: embedded.held_deformation, embedded.held_tracked;
+constexpr std::uint32_t kVersion = 21;  // 2: embedded.held_deformation, embedded.held_tracked;
                                        // 3: contact moved-particle updates (per-particle search positions);
                                        // 4: no per-bond |ξ|, ω, mirror index; e^p as float (issue 16);
                                        // 5: model.anisotropy_metric (GᵀG per particle);
@@ -36,6 +36,7 @@ constexpr std::uint32_t kVersion = 20;  // 2: embedded.held_deformation, embedde
                                        // 18: model.reference_point
                                        // 19: contact.pairs.partner_moved, .near_count
                                        // 20: contact.pairs.resort
+                                       // 21: contact.pairs.length (rows with spare capacity)
 
 // Not saved: worker-slot scratch (sized by the thread count, so a resume on another thread count keeps
 // its own) and the projectiles' per-block contact lists (refilled by every step before any reads).
@@ -65,6 +66,7 @@ void for_each_scalar(W& w, F&& f) {
   f(c.pairs.builds);
   f(c.pairs.partial_updates);
   f(c.pairs.searched);
+  f(c.pairs.layouts);
   auto& e = w.embedded;
   f(e.crack_faces_total);
   f(e.vertex_copies_total);

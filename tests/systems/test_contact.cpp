@@ -265,7 +265,8 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
   REQUIRE(w.contact.enabled);
   const SystemDecl contact = systems::contact_system(w);
   const std::size_t n = w.particles.count();
-  std::size_t checks = 0, missing = 0, close_pairs = 0, one_sided = 0, duplicated = 0, touching = 0, far_touching = 0;
+  std::size_t checks = 0, missing = 0, close_pairs = 0, one_sided = 0, duplicated = 0, touching = 0, far_touching = 0,
+              overfull = 0;
   const int steps = 400;
   for (int s = 0; s < steps; ++s) {
     world.step();
@@ -274,7 +275,8 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
     const auto& pr = w.contact.pairs;
     const double reach2 = w.contact.largest_distance * w.contact.largest_distance;
     for (std::uint32_t i = 0; i < n; ++i) {
-      std::vector<std::uint32_t> listed(pr.neighbor.begin() + pr.offsets[i], pr.neighbor.begin() + pr.offsets[i + 1]);
+      std::vector<std::uint32_t> listed(pr.neighbor.begin() + pr.offsets[i], pr.neighbor.begin() + pr.offsets[i] + pr.length[i]);
+      overfull += pr.length[i] > pr.offsets[i + 1] - pr.offsets[i];  // a row beyond its room
       std::sort(listed.begin(), listed.end());
       duplicated += std::adjacent_find(listed.begin(), listed.end()) != listed.end();  // a pair twice: twice the force
       // The forces read only a row's near part: every pair within its own (uncapped) d_c must be there.
@@ -295,7 +297,7 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
       }
       // Symmetric: j lists i whenever i lists j (each particle gathers its own force from its list).
       for (std::uint32_t j : listed) {
-        const auto first = pr.neighbor.begin() + pr.offsets[j], last = pr.neighbor.begin() + pr.offsets[j + 1];
+        const auto first = pr.neighbor.begin() + pr.offsets[j], last = first + pr.length[j];
         one_sided += std::find(first, last, i) == last;
       }
     }
@@ -307,7 +309,8 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
                  << w.contact.pairs.additions << " additions of broken pairs in " << steps
                  << " steps; broken bonds " << world.bond_count() - world.alive_bond_count()
                  << "; one-sided entries " << one_sided << "; lists with a pair twice " << duplicated
-                 << "; listed pairs within d_c " << touching << ", in the far part " << far_touching);
+                 << "; listed pairs within d_c " << touching << ", in the far part " << far_touching
+                 << "; rows beyond their room " << overfull << "; rows laid out anew " << w.contact.pairs.layouts << " times");
   CHECK(world.bond_count() > world.alive_bond_count());  // bonds broke, so the list had to follow
   CHECK(close_pairs > 0);
   CHECK(missing == 0);
@@ -315,8 +318,10 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
   CHECK(duplicated == 0);
   CHECK(touching > 0);
   CHECK(far_touching == 0);
+  CHECK(overfull == 0);
   CHECK(w.contact.pairs.builds > 1);           // full rebuilds (the half search) after the first
   CHECK(w.contact.pairs.partial_updates > 0);  // the moved-particle update was exercised
+  CHECK(w.contact.pairs.layouts > 0);          // and so was a row outgrowing its room
 }
 
 TEST_CASE("a projectile first touches a body where its mesh surface is, at any resolution") {

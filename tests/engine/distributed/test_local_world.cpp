@@ -233,7 +233,7 @@ static void lockstep_matches_one_process(const std::filesystem::path& scene_file
         // Owned particles that a contact ghost pushes this step (the case only contact ghosts cover).
         const auto& pr = w.contact.pairs;
         for (std::uint32_t i = l.owned_begin; i < l.owned_begin + l.owned_count; ++i)
-          for (std::uint32_t q = pr.offsets[i]; q < pr.offsets[i + 1]; ++q)
+          for (std::uint32_t q = pr.offsets[i]; q < pr.offsets[i] + pr.length[i]; ++q)
             if (const std::uint32_t j = pr.neighbor[q]; j >= l.base_count) {
               const double dc = w.contact.distance_factor * 0.5 * (w.contact.size[i] + w.contact.size[j]);
               const double reference = (w.particles.reference_position[j] - w.particles.reference_position[i]).norm();
