@@ -227,6 +227,13 @@ void for_each_array(W& w, F&& f) {
   f(K::contact, "contact.grid.cursor", c.grid.cursor);
   f(K::contact, "contact.grid.sorted", c.grid.sorted);
   f(K::contact, "contact.grid.sorted_position", c.grid.sorted_position);
+  f(K::contact, "contact.search_grid.cell_of", c.search_grid.cell_of);
+  f(K::contact, "contact.search_grid.sorted_key", c.search_grid.sorted_key);
+  f(K::contact, "contact.search_grid.bucket", c.search_grid.bucket);
+  f(K::contact, "contact.search_grid.start", c.search_grid.start);
+  f(K::contact, "contact.search_grid.cursor", c.search_grid.cursor);
+  f(K::contact, "contact.search_grid.sorted", c.search_grid.sorted);
+  f(K::contact, "contact.search_grid.sorted_position", c.search_grid.sorted_position);
   f(K::contact, "contact.pairs.offsets", c.pairs.offsets);
   f(K::contact, "contact.pairs.neighbor", c.pairs.neighbor);
   f(K::contact, "contact.pairs.length", c.pairs.length);
@@ -245,6 +252,8 @@ void for_each_array(W& w, F&& f) {
   f(K::contact, "contact.pairs.moved_offsets", c.pairs.moved_offsets);
   f(K::contact, "contact.pairs.moved_neighbor", c.pairs.moved_neighbor);
   f(K::contact, "contact.pairs.found_by", c.pairs.found_by);
+  f(K::contact, "contact.pairs.displaced", c.pairs.displaced);
+  f(K::contact, "contact.pairs.displaced_list", c.pairs.displaced_list);
   f(K::contact, "contact.pairs.broken_seen", c.pairs.broken_seen);
   f(K::other, "projectiles.bodies", w.projectiles.bodies);
   for (auto& block : w.projectiles.block_contacts) f(K::other, "projectiles.block_contacts", block);

@@ -39,7 +39,8 @@
 // The search uses a hashed uniform grid (spatial_grid.hpp; cell = reach, counting sort, stable:
 // particles in a bucket stay in index order) and visits 9 rows of 3 cells in a fixed order. A full
 // rebuild searches only the forward half of those cells (for_each_within_forward), so each pair is tested
-// once, and writes it on both sides. The skin, 0.6 d_c, is what balances the cost on the fast
+// once, and writes it on both sides. An update's search looks up a second grid, of the search positions
+// (for_each_candidate_moved), which it rebuilds only now and then. The skin, 0.6 d_c, is what balances the cost on the fast
 // fragments of the bunny preview (dt 5e-4 s, 3 m/s landing): 0.3 rebuilt the list 313 times in 1,000
 // steps; a larger skin searches more candidates per search (∝ reach³). Each particle then gathers the forces on
 // itself from its list (no scatter, no atomics), in increasing (global) index of the partner (sort_rows),
@@ -96,10 +97,8 @@ static_assert(3 * kMoveLimit < 1.0 && 4 * kMoveLimit < 1.0 + kBrokenReachExtra,
 // (9 rows of 3 cells; kForwardHalf: only the forward half of them, for_each_within_forward, so that a
 // search of every particle visits each pair once). `stamp` is this (pass, particle)'s unique mark and
 // `marks` the calling thread's row of ContactPairs::bonded_stamp.
-template <bool kForwardHalf = false, class Visit>
-void for_each_candidate(const WorldState& w, std::uint32_t i, std::uint64_t stamp, std::uint64_t* marks,
-                        Visit&& visit) {
-  const auto& g = w.contact.grid;
+// Marks i's alive bond partners j with marks[j] = stamp.
+void mark_bonded(const WorldState& w, std::uint32_t i, std::uint64_t stamp, std::uint64_t* marks) {
   const auto& b = w.bonds;
   std::uint32_t bond = b.offsets[i];
   const std::uint32_t bonds_end = b.offsets[i + 1];
@@ -116,24 +115,107 @@ void for_each_candidate(const WorldState& w, std::uint32_t i, std::uint64_t stam
 #endif
   for (; bond < bonds_end; ++bond)
     if (b.alive[bond]) marks[b.neighbor[bond]] = stamp;
+}
+
+// Whether j (within reach of i) is a candidate of i: not i, not bonded to it (marks, mark_bonded). A
+// ghost of a distributed run has no bond row: its pairs with other ghosts are left out (nobody reads
+// their forces), and whether it is bonded to an owned particle j is read from j's row.
+bool unbonded_candidate(const WorldState& w, std::uint32_t i, std::uint32_t j, std::uint64_t stamp,
+                        const std::uint64_t* marks) {
+  if (j == i || marks[j] == stamp) return false;
+  if (w.owns(i)) return true;
+  if (!w.owns(j)) return false;
+  const auto& b = w.bonds;
+  for (std::uint32_t k = b.offsets[j]; k < b.offsets[j + 1]; ++k)
+    if (b.neighbor[k] == i) return b.alive[k] == 0;
+  return true;
+}
+
+template <bool kForwardHalf = false, class Visit>
+void for_each_candidate(const WorldState& w, std::uint32_t i, std::uint64_t stamp, std::uint64_t* marks,
+                        Visit&& visit) {
+  const auto& g = w.contact.grid;
+  mark_bonded(w, i, stamp, marks);
   const Vec3 yi = w.particles.position[i];
   const double reach2 = g.cell * g.cell;
-  // A ghost of a distributed run has no bond row: its pairs with other ghosts are left out (nobody
-  // reads their forces), and whether it is bonded to an owned particle j is read from j's row.
-  const bool ghost = !w.owns(i);
-  auto bonded_to_ghost = [&](std::uint32_t j) {
-    for (std::uint32_t k = b.offsets[j]; k < b.offsets[j + 1]; ++k)
-      if (b.neighbor[k] == i) return b.alive[k] != 0;
-    return false;
-  };
   auto test = [&](std::uint32_t q) {  // q is within reach (for_each_within's branch-free filter)
-    const std::uint32_t j = g.sorted[q];
-    if (j == i || marks[j] == stamp) return;
-    if (ghost && (!w.owns(j) || bonded_to_ghost(j))) return;
-    visit(j);
+    if (const std::uint32_t j = g.sorted[q]; unbonded_candidate(w, i, j, stamp, marks)) visit(j);
   };
   if constexpr (kForwardHalf) for_each_within_forward(g, yi, i, reach2, test);
   else for_each_within(g, yi, reach2, test);
+}
+
+// The same candidates as for_each_candidate (every unbonded j ≠ i within reach of i now; another order)
+// without a grid of the current positions. ContactState::search_grid holds the search positions b_j
+// (relative to the centroid at each search) as of its build. A particle not displaced since then was
+// not searched again, and is not moved now: |y_j − centroid − b_j| ≤ h = 0.3 skin (the moved test), so
+// when it is within reach R of i, b_j is within R + h of y_i − centroid, which the grid's cells of
+// (R + h)(1 + 1e-6) cover. The displaced particles (this update's moved ones among them) are tested one
+// by one. Each candidate then passes the grid's own distance test on the current positions (the IEEE
+// expression of scan_range: Eigen's squared norm of y_j − y_i, NaN passing), so the same pairs pass.
+template <class Visit>
+void for_each_candidate_moved(const WorldState& w, std::uint32_t i, const Vec3& centroid, std::uint64_t stamp,
+                              std::uint64_t* marks, Visit&& visit) {
+  const auto& c = w.contact;
+  const auto& sg = c.search_grid;
+  const auto& pr = c.pairs;
+  const auto& y = w.particles.position;
+  mark_bonded(w, i, stamp, marks);
+  const Vec3 yi = y[i];
+  const double reach2 = c.grid.cell * c.grid.cell;
+  auto test = [&](std::uint32_t j) {
+    if (!((y[j] - yi).squaredNorm() >= reach2) && unbonded_candidate(w, i, j, stamp, marks)) visit(j);
+  };
+  for_each_within(sg, Vec3(yi - centroid), sg.cell * sg.cell, [&](std::uint32_t q) {
+    if (const std::uint32_t j = sg.sorted[q]; !pr.displaced[j]) test(j);
+  });
+  for (const std::uint32_t j : pr.displaced_list) test(j);
+}
+
+// The search grid's cell: the list reach R plus h = 0.3 skin, widened by a relative 1e-6 so that the
+// rounding of positions far from the centroid cannot leave a pair within R outside it.
+double search_cell(const ContactState& c) {
+  return (c.largest_distance + c.pairs.skin + kMoveLimit * c.pairs.skin) * (1.0 + 1e-6);
+}
+
+// Before an update's search: the moved particles' new search positions, and which grid the search reads.
+// The search grid (for_each_candidate_moved) holds every particle not displaced; the displaced ones are
+// tested one by one by every search. While that costs less than a build (displaced × moved ≤ particles)
+// it is kept. Otherwise it is built again from every search position, if it will be kept for a few
+// updates (moved² ≤ particles/2: that many more can be displaced before the next build); and when
+// even that is not so (many moved particles, as in a soft body wobbling after it landed: the bunny
+// preview), the grid of the current positions is built and searched as a full rebuild does
+// (for_each_candidate, cells 0.3 skin smaller). Returns whether the search grid is the one to read.
+bool prepare_search_grid(WorldState& w, const Vec3& centroid) {
+  auto& c = w.contact;
+  auto& pr = c.pairs;
+  const auto& p = w.particles;
+  const std::size_t n = p.count(), m = pr.moved_list.size();
+  parallel_for_each(m, [&](std::size_t a) {
+    const std::uint32_t i = pr.moved_list[a];
+    pr.built_position[i] = p.position[i] - centroid;
+  }, 256);
+  std::size_t newly = 0;
+  for (const std::uint32_t i : pr.moved_list) newly += !pr.displaced[i];
+  if (pr.search_grid_valid && (pr.displaced_list.size() + newly) * m <= n) {
+    for (const std::uint32_t i : pr.moved_list)
+      if (!pr.displaced[i]) {
+        pr.displaced[i] = 1;
+        pr.displaced_list.push_back(i);
+      }
+    return true;
+  }
+  for (const std::uint32_t i : pr.displaced_list) pr.displaced[i] = 0;
+  pr.displaced_list.clear();
+  if (2 * m * m > n) {
+    pr.search_grid_valid = false;
+    build_grid(c.grid, p.position);
+    return false;
+  }
+  build_grid(c.search_grid, pr.built_position);
+  pr.search_grid_valid = true;
+  ++pr.search_grid_builds;
+  return true;
 }
 
 // The calling worker's row of the bonded-partner marks.
@@ -369,7 +451,7 @@ void sort_rows(WorldState& w, bool only_marked) {
 // Searches the moved particles (pr.moved) again and re-decides every pair with a moved end; keeps
 // the other pairs and adds those of bonds broken since the last update that are within reach now (see
 // the header for why that is enough; both ends of a bond see the same bit-symmetric test). With no
-// moved particle it is only that addition (no grid build, no search). New list of
+// moved particle it is only that addition (no search). New list of
 //   a moved particle i:  its search (unbonded particles within reach now), in grid-visit order;
 //   any other particle j: its old pairs with unmoved partners, in their order; then the bonds broken
 //                         since the last update whose unmoved partner is within reach, in bond order;
@@ -396,15 +478,20 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
   const std::uint32_t cap = static_cast<std::uint32_t>(
       std::min<std::size_t>(2 * ContactPairs::kScratchPerParticle, pr.scratch.size() / std::max<std::size_t>(m, 1)));
   const std::uint64_t search_base = pr.stamp_base, fill_base = search_base + n + 1;
+  bool search_grid = false;
   if (m > 0) {
-    build_grid(c.grid, p.position);
+    search_grid = prepare_search_grid(w, centroid);
     pr.stamp_base = fill_base + n + 1;
   }
+  auto for_each_found = [&](std::uint32_t i, std::uint64_t stamp, auto&& visit) {
+    if (search_grid) for_each_candidate_moved(w, i, centroid, stamp, stamp_row(pr, n), visit);
+    else for_each_candidate(w, i, stamp, stamp_row(pr, n), visit);
+  };
   parallel_for_each(m, [&](std::size_t a) {
     const std::uint32_t i = pr.moved_list[a];
     std::uint32_t count = 0;
     std::uint32_t* row = pr.scratch.data() + a * cap;
-    for_each_candidate(w, i, search_base + i + 1, stamp_row(pr, n), [&](std::uint32_t j) {
+    for_each_found(i, search_base + i + 1, [&](std::uint32_t j) {
       if (count < cap) row[count] = j;
       ++count;
     });
@@ -420,7 +507,7 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
       std::copy_n(pr.scratch.data() + a * cap, pr.count[i], pr.moved_neighbor.data() + q);
       return;
     }
-    for_each_candidate(w, i, fill_base + i + 1, stamp_row(pr, n), [&](std::uint32_t j) { pr.moved_neighbor[q++] = j; });
+    for_each_found(i, fill_base + i + 1, [&](std::uint32_t j) { pr.moved_neighbor[q++] = j; });
   }, 64);
   // 2. How many moved particles found each unmoved one (serial: a particle can be found by several),
   // and which rows hold a moved partner: the list is symmetric, so they are the moved particles' old
@@ -483,7 +570,6 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
     std::copy(pr.moved_neighbor.begin() + pr.moved_offsets[a], pr.moved_neighbor.begin() + pr.moved_offsets[a + 1],
               pr.neighbor.begin() + pr.offsets[i]);
     pr.length[i] = pr.count[i];
-    pr.built_position[i] = p.position[i] - centroid;
   }, 64);
   for (std::size_t a = 0; a < m; ++a)
     for (std::uint32_t q = pr.moved_offsets[a]; q < pr.moved_offsets[a + 1]; ++q)
@@ -564,6 +650,7 @@ void rebuild_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& centroid
     pr.found_by[i] = 0;  // all 0 between updates
   }, 4096);
   take_in_all_breaks(w);
+  pr.search_grid_valid = false;  // every search position changed: the next update builds it
   pr.broken_at_build = broken_now;
   pr.valid = true;
   ++pr.builds;
@@ -610,6 +697,11 @@ void allocate_pairs(WorldState& w) {
   pr.stamp_base = 0;
   pr.valid = false;
   allocate_grid(c.grid, n, c.largest_distance + pr.skin);
+  pr.displaced.assign(n, 0);
+  pr.displaced_list.clear();
+  pr.displaced_list.reserve(n);
+  pr.search_grid_valid = false;
+  allocate_grid(c.search_grid, n, search_cell(c));
 }
 
 }  // namespace
@@ -681,6 +773,11 @@ void replace_contact_tail(WorldState& w, std::size_t kept) {
   pr.scratch.resize(n * ContactPairs::kScratchPerParticle);
   pr.bonded_stamp.assign(pr.stamp_slots * n, 0);  // every mark below stamp_base: none matches a later pass
   allocate_grid(c.grid, n, c.largest_distance + pr.skin);
+  pr.displaced.assign(n, 0);
+  pr.displaced_list.clear();
+  pr.displaced_list.reserve(n);
+  pr.search_grid_valid = false;  // sized for n anew: the next update builds it
+  allocate_grid(c.search_grid, n, search_cell(c));
 }
 
 

@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'P', 'E', 'R', 'I', 'F', 'X', 'C', 'K'};
-constexpr std::uint32_t kVersion = 21;  // 2: embedded.held_deformation, embedded.held_tracked;
+constexpr std::uint32_t kVersion = 22;  // 2: embedded.held_deformation, embedded.held_tracked;
                                        // 3: contact moved-particle updates (per-particle search positions);
                                        // 4: no per-bond |ξ|, ω, mirror index; e^p as float (issue 16);
                                        // 5: model.anisotropy_metric (GᵀG per particle);
@@ -37,6 +37,7 @@ constexpr std::uint32_t kVersion = 21;  // 2: embedded.held_deformation, embedde
                                        // 19: contact.pairs.partner_moved, .near_count
                                        // 20: contact.pairs.resort
                                        // 21: contact.pairs.length (rows with spare capacity)
+                                       // 22: contact.search_grid, contact.pairs.displaced(_list)
 
 // Not saved: worker-slot scratch (sized by the thread count, so a resume on another thread count keeps
 // its own) and the projectiles' per-block contact lists (refilled by every step before any reads).
@@ -58,6 +59,8 @@ void for_each_scalar(W& w, F&& f) {
   f(c.largest_distance);
   f(c.grid.cell);
   f(c.grid.mask);
+  f(c.search_grid.cell);
+  f(c.search_grid.mask);
   f(c.pairs.skin);
   f(c.pairs.stamp_base);
   f(c.pairs.broken_at_build);
@@ -67,6 +70,8 @@ void for_each_scalar(W& w, F&& f) {
   f(c.pairs.partial_updates);
   f(c.pairs.searched);
   f(c.pairs.layouts);
+  f(c.pairs.search_grid_valid);
+  f(c.pairs.search_grid_builds);
   auto& e = w.embedded;
   f(e.crack_faces_total);
   f(e.vertex_copies_total);
