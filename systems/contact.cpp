@@ -308,7 +308,10 @@ void for_each_new_break_word(const WorldState& w, std::size_t i, Visit&& visit) 
     std::uint64_t row = ~std::uint64_t{0};
     if (word == first / 64) row &= ~std::uint64_t{0} << (first % 64);
     if (word == last) row &= ~std::uint64_t{0} >> (63 - (end - 1) % 64);
-    if (const std::uint64_t bits = pr.alive_at_build[word] & ~alive_bits(b.alive, word) & row) visit(word, bits);
+    // An atomic load: take_in_breaks clears other particles' bits of a shared first or last word meanwhile.
+    const std::uint64_t at_build =
+        std::atomic_ref<std::uint64_t>(const_cast<std::uint64_t&>(pr.alive_at_build[word])).load(std::memory_order_relaxed);
+    if (const std::uint64_t bits = at_build & ~alive_bits(b.alive, word) & row) visit(word, bits);
   }
 }
 
