@@ -177,7 +177,7 @@ PYBIND11_MODULE(perifx, m) {
            })
       .def("memory_bytes", [](const World& w) { return w.memory().total_bytes; })
       .def("set_profiling", &World::set_profiling, py::arg("on"),
-           "time every system of the step from now on (off by default)")
+           "time every system of the step from now on, running them one at a time (off by default)")
       .def("system_times", [](const World& w) {
              py::list out;
              for (const auto& t : w.system_times()) {

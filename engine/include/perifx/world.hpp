@@ -101,7 +101,7 @@ struct RankStats {
 // Wall time of one system of the step's task graph while profiling was on (World::set_profiling).
 struct SystemTime {
   std::string name;        // the system's name, as in World::schedule()
-  double seconds = 0.0;    // summed over the profiled steps; systems the graph runs side by side overlap
+  double seconds = 0.0;    // summed over the profiled steps (a profiled step runs its systems one at a time)
   std::uint64_t runs = 0;  // profiled steps it ran in
   // Distributed runs (World::all_ranks_system_times, on rank 0): every rank's seconds, by rank.
   std::vector<double> rank_seconds;
@@ -191,7 +191,8 @@ class World {
   Diagnostics diagnostics() const;
   std::string schedule() const;    // the task graph, one system per line
   // Per-system wall time of the steps taken while profiling is on (off by default; costs two clock
-  // reads per system per step). `perifx run --profile` prints it.
+  // reads per system per step, and the step runs its systems one at a time, each with every thread, so
+  // each time is that system's own). `perifx run --profile` prints it.
   void set_profiling(bool on);
   std::vector<SystemTime> system_times() const;  // in schedule() order
   // The same, with every rank's seconds in rank_seconds on rank 0 of a distributed run (collective;
