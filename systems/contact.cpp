@@ -667,6 +667,17 @@ void size_particles(WorldState& w) {
   for (std::size_t i = 0; i < n; ++i) c.size[i] = std::cbrt(w.particles.volume[i]);
 }
 
+// Both grids for n particles, nothing displaced; the search grid is built by the next update that needs it.
+void allocate_grids(ContactState& c, std::size_t n) {
+  auto& pr = c.pairs;
+  allocate_grid(c.grid, n, c.largest_distance + pr.skin);
+  pr.displaced.assign(n, 0);
+  pr.displaced_list.clear();
+  pr.displaced_list.reserve(n);
+  pr.search_grid_valid = false;
+  allocate_grid(c.search_grid, n, search_cell(c));
+}
+
 // Every buffer of the pair list and grid, for the current particle count (the list is built on the
 // next step).
 void allocate_pairs(WorldState& w) {
@@ -699,12 +710,7 @@ void allocate_pairs(WorldState& w) {
   assign_huge_pages(pr.bonded_stamp, pr.stamp_slots * n, std::uint64_t{0});
   pr.stamp_base = 0;
   pr.valid = false;
-  allocate_grid(c.grid, n, c.largest_distance + pr.skin);
-  pr.displaced.assign(n, 0);
-  pr.displaced_list.clear();
-  pr.displaced_list.reserve(n);
-  pr.search_grid_valid = false;
-  allocate_grid(c.search_grid, n, search_cell(c));
+  allocate_grids(c, n);
 }
 
 }  // namespace
@@ -775,12 +781,7 @@ void replace_contact_tail(WorldState& w, std::size_t kept) {
   for (std::size_t i = kept; i < n; ++i) pr.broken_seen[i] = w.state.broken_bonds[i];
   pr.scratch.resize(n * ContactPairs::kScratchPerParticle);
   pr.bonded_stamp.assign(pr.stamp_slots * n, 0);  // every mark below stamp_base: none matches a later pass
-  allocate_grid(c.grid, n, c.largest_distance + pr.skin);
-  pr.displaced.assign(n, 0);
-  pr.displaced_list.clear();
-  pr.displaced_list.reserve(n);
-  pr.search_grid_valid = false;  // sized for n anew: the next update builds it
-  allocate_grid(c.search_grid, n, search_cell(c));
+  allocate_grids(c, n);
 }
 
 
