@@ -49,12 +49,14 @@ struct ContactPairs {
   std::vector<std::uint8_t> moved, partner_moved, resort;
   // The update's search (systems/contact.cpp, for_each_candidate_moved) looks particles up in
   // ContactState::search_grid, which holds their search positions as of its build. displaced[i] = 1
-  // when i was searched again since (its cell there is stale); displaced_list lists those, which the
-  // search tests one by one. search_grid_valid is false until the next update builds the grid.
+  // when i was searched again since (its cell there is stale); displaced_list lists those (at most
+  // particles/8 + 1), whose latest search positions ContactState::displaced_grid holds.
+  // search_grid_valid is false until the next update builds the grid.
   std::vector<std::uint8_t> displaced;
   std::vector<std::uint32_t> displaced_list;
   bool search_grid_valid = false;
   std::uint64_t search_grid_builds = 0;    // diagnostics
+  std::uint64_t displaced_grid_builds = 0; // diagnostics
   std::vector<std::uint32_t> moved_list, moved_offsets, moved_neighbor, found_by;
   // Build scratch, one row of `particles` entries per worker thread slot: while thread t builds the
   // list of particle i it marks i's alive bond partners j with bonded_stamp[t·n + j] = stamp, so
@@ -89,6 +91,8 @@ struct ContactState {
   SpatialGrid grid;              // cell = largest d_c + skin; rebuilt with the pair list
   SpatialGrid search_grid;       // the search positions (ContactPairs::built_position) in cells of
                                  // (largest d_c + skin + 0.3 skin)(1 + 1e-6); see ContactPairs::displaced
+  SpatialGrid displaced_grid;    // the displaced particles' search positions, same cells; sorted again
+                                 // by every update that reads the search grid (room: particles/8 + 1)
   ContactPairs pairs;
 };
 

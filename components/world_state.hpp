@@ -234,6 +234,13 @@ void for_each_array(W& w, F&& f) {
   f(K::contact, "contact.search_grid.cursor", c.search_grid.cursor);
   f(K::contact, "contact.search_grid.sorted", c.search_grid.sorted);
   f(K::contact, "contact.search_grid.sorted_position", c.search_grid.sorted_position);
+  f(K::contact, "contact.displaced_grid.cell_of", c.displaced_grid.cell_of);
+  f(K::contact, "contact.displaced_grid.sorted_key", c.displaced_grid.sorted_key);
+  f(K::contact, "contact.displaced_grid.bucket", c.displaced_grid.bucket);
+  f(K::contact, "contact.displaced_grid.start", c.displaced_grid.start);
+  f(K::contact, "contact.displaced_grid.cursor", c.displaced_grid.cursor);
+  f(K::contact, "contact.displaced_grid.sorted", c.displaced_grid.sorted);
+  f(K::contact, "contact.displaced_grid.sorted_position", c.displaced_grid.sorted_position);
   f(K::contact, "contact.pairs.offsets", c.pairs.offsets);
   f(K::contact, "contact.pairs.neighbor", c.pairs.neighbor);
   f(K::contact, "contact.pairs.length", c.pairs.length);

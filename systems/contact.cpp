@@ -40,7 +40,8 @@
 // particles in a bucket stay in index order) and visits 9 rows of 3 cells in a fixed order. A full
 // rebuild searches only the forward half of those cells (for_each_within_forward), so each pair is tested
 // once, and writes it on both sides. An update's search looks up a second grid, of the search positions
-// (for_each_candidate_moved), which it rebuilds only now and then. The skin, 0.6 d_c, is what balances the cost on the fast
+// (for_each_candidate_moved), which it rebuilds only now and then, and a small third one of the particles
+// searched since (the displaced grid, sorted again each update). The skin, 0.6 d_c, is what balances the cost on the fast
 // fragments of the bunny preview (dt 5e-4 s, 3 m/s landing): 0.3 rebuilt the list 313 times in 1,000
 // steps; a larger skin searches more candidates per search (∝ reach³). Each particle then gathers the forces on
 // itself from its list (no scatter, no atomics), in increasing (global) index of the partner (sort_rows),
@@ -150,12 +151,15 @@ void for_each_candidate(const WorldState& w, std::uint32_t i, std::uint64_t stam
 // (relative to the centroid at each search) as of its build. A particle not displaced since then was
 // not searched again, and is not moved now: |y_j − centroid − b_j| ≤ h = 0.3 skin (the moved test), so
 // when it is within reach R of i, b_j is within R + h of y_i − centroid, which the grid's cells of
-// (R + h)(1 + 1e-6) cover. The displaced particles (this update's moved ones among them) are tested one
-// by one. Each candidate then passes the grid's own distance test on the current positions (the IEEE
-// expression of scan_range: Eigen's squared norm of y_j − y_i, NaN passing), so the same pairs pass.
+// (R + h)(1 + 1e-6) cover. The displaced particles (this update's moved ones among them) were searched
+// since, so the same holds of their latest search positions: few of them are tested one by one, more
+// are looked up in ContactState::displaced_grid (`displaced_in_grid`; prepare_search_grid). Each candidate then passes the grid's own distance test on
+// the current positions (the IEEE expression of scan_range: Eigen's squared norm of y_j − y_i, NaN
+// passing), so the same pairs pass. (The visit order differs from a search of the current positions;
+// a searched row is sorted afterwards, so the list does not depend on it.)
 template <class Visit>
-void for_each_candidate_moved(const WorldState& w, std::uint32_t i, const Vec3& centroid, std::uint64_t stamp,
-                              std::uint64_t* marks, Visit&& visit) {
+void for_each_candidate_moved(const WorldState& w, std::uint32_t i, const Vec3& centroid, bool displaced_in_grid,
+                              std::uint64_t stamp, std::uint64_t* marks, Visit&& visit) {
   const auto& c = w.contact;
   const auto& sg = c.search_grid;
   const auto& pr = c.pairs;
@@ -166,10 +170,16 @@ void for_each_candidate_moved(const WorldState& w, std::uint32_t i, const Vec3& 
   auto test = [&](std::uint32_t j) {
     if (!((y[j] - yi).squaredNorm() >= reach2) && unbonded_candidate(w, i, j, stamp, marks)) visit(j);
   };
-  for_each_within(sg, Vec3(yi - centroid), sg.cell * sg.cell, [&](std::uint32_t q) {
+  const Vec3 zi = yi - centroid;
+  for_each_within(sg, zi, sg.cell * sg.cell, [&](std::uint32_t q) {
     if (const std::uint32_t j = sg.sorted[q]; !pr.displaced[j]) test(j);
   });
-  for (const std::uint32_t j : pr.displaced_list) test(j);
+  if (!displaced_in_grid) {
+    for (const std::uint32_t j : pr.displaced_list) test(j);
+    return;
+  }
+  const auto& dg = c.displaced_grid;
+  for_each_within(dg, zi, dg.cell * dg.cell, [&](std::uint32_t q) { test(dg.sorted[q]); });
 }
 
 // The search grid's cell: the list reach R plus h = 0.3 skin, widened by a relative 1e-6 so that the
@@ -178,15 +188,23 @@ double search_cell(const ContactState& c) {
   return (c.largest_distance + c.pairs.skin + kMoveLimit * c.pairs.skin) * (1.0 + 1e-6);
 }
 
+// At most this share of the particles are displaced (ContactState::displaced_grid's room) before the
+// search grid is built again.
+constexpr std::size_t kDisplacedShare = 8;
+std::size_t displaced_room(std::size_t n) { return n / kDisplacedShare + 1; }
+
 // Before an update's search: the moved particles' new search positions, and which grid the search reads.
-// The search grid (for_each_candidate_moved) holds every particle not displaced; the displaced ones are
-// tested one by one by every search. While that costs less than a build (displaced × moved ≤ particles)
-// it is kept. Otherwise it is built again from every search position, if it will be kept for a few
-// updates (moved² ≤ particles/2: that many more can be displaced before the next build); and when
-// even that is not so (many moved particles, as in a soft body wobbling after it landed: the bunny
-// preview), the grid of the current positions is built and searched as a full rebuild does
-// (for_each_candidate, cells 0.3 skin smaller). Returns whether the search grid is the one to read.
-bool prepare_search_grid(WorldState& w, const Vec3& centroid) {
+// The search grid (for_each_candidate_moved) holds every particle not displaced. Each search tests the
+// displaced ones (this update's moved ones among them) one by one while that costs less than sorting
+// them (displaced × moved ≤ particles); beyond that they are sorted into the displaced grid, by their
+// search positions, every update: a counting sort of the displaced only (in the glass-wall shot ~1,400
+// moved per update among 6e5 particles, and a sort of every particle each update was most of an
+// update). The search grid is built again when more than 1/8 of the particles are displaced. When more
+// than 1/32 move in one update (a soft body wobbling after it landed: the bunny preview), the grid of
+// the current positions is built and searched as a full rebuild does (for_each_candidate): the search
+// grid would then be built every few updates, and its cells, 0.3 skin wider, hold twice the candidates.
+enum class UpdateSearch { current_grid, search_grid, search_and_displaced_grids };
+UpdateSearch prepare_search_grid(WorldState& w, const Vec3& centroid) {
   auto& c = w.contact;
   auto& pr = c.pairs;
   const auto& p = w.particles;
@@ -195,27 +213,32 @@ bool prepare_search_grid(WorldState& w, const Vec3& centroid) {
     const std::uint32_t i = pr.moved_list[a];
     pr.built_position[i] = p.position[i] - centroid;
   }, 256);
+  if (32 * m > n) {
+    for (const std::uint32_t i : pr.displaced_list) pr.displaced[i] = 0;
+    pr.displaced_list.clear();
+    pr.search_grid_valid = false;
+    build_grid(c.grid, p.position);
+    return UpdateSearch::current_grid;
+  }
   std::size_t newly = 0;
   for (const std::uint32_t i : pr.moved_list) newly += !pr.displaced[i];
-  if (pr.search_grid_valid && (pr.displaced_list.size() + newly) * m <= n) {
+  if (pr.search_grid_valid && pr.displaced_list.size() + newly <= displaced_room(n)) {
     for (const std::uint32_t i : pr.moved_list)
       if (!pr.displaced[i]) {
         pr.displaced[i] = 1;
         pr.displaced_list.push_back(i);
       }
-    return true;
+    if (pr.displaced_list.size() * m <= n) return UpdateSearch::search_grid;
+    build_grid_of(c.displaced_grid, pr.built_position, pr.displaced_list);
+    ++pr.displaced_grid_builds;
+    return UpdateSearch::search_and_displaced_grids;
   }
   for (const std::uint32_t i : pr.displaced_list) pr.displaced[i] = 0;
   pr.displaced_list.clear();
-  if (2 * m * m > n) {
-    pr.search_grid_valid = false;
-    build_grid(c.grid, p.position);
-    return false;
-  }
   build_grid(c.search_grid, pr.built_position);
   pr.search_grid_valid = true;
   ++pr.search_grid_builds;
-  return true;
+  return UpdateSearch::search_grid;
 }
 
 // The calling worker's row of the bonded-partner marks.
@@ -481,13 +504,15 @@ void update_moved_pairs(WorldState& w, std::uint64_t broken_now, const Vec3& cen
   const std::uint32_t cap = static_cast<std::uint32_t>(
       std::min<std::size_t>(2 * ContactPairs::kScratchPerParticle, pr.scratch.size() / std::max<std::size_t>(m, 1)));
   const std::uint64_t search_base = pr.stamp_base, fill_base = search_base + n + 1;
-  bool search_grid = false;
+  UpdateSearch search = UpdateSearch::current_grid;
   if (m > 0) {
-    search_grid = prepare_search_grid(w, centroid);
+    search = prepare_search_grid(w, centroid);
     pr.stamp_base = fill_base + n + 1;
   }
   auto for_each_found = [&](std::uint32_t i, std::uint64_t stamp, auto&& visit) {
-    if (search_grid) for_each_candidate_moved(w, i, centroid, stamp, stamp_row(pr, n), visit);
+    if (search != UpdateSearch::current_grid)
+      for_each_candidate_moved(w, i, centroid, search == UpdateSearch::search_and_displaced_grids, stamp,
+                               stamp_row(pr, n), visit);
     else for_each_candidate(w, i, stamp, stamp_row(pr, n), visit);
   };
   parallel_for_each(m, [&](std::size_t a) {
@@ -667,15 +692,17 @@ void size_particles(WorldState& w) {
   for (std::size_t i = 0; i < n; ++i) c.size[i] = std::cbrt(w.particles.volume[i]);
 }
 
-// Both grids for n particles, nothing displaced; the search grid is built by the next update that needs it.
+// The three grids for n particles, nothing displaced; the search grid is built by the next update that
+// needs it.
 void allocate_grids(ContactState& c, std::size_t n) {
   auto& pr = c.pairs;
   allocate_grid(c.grid, n, c.largest_distance + pr.skin);
   pr.displaced.assign(n, 0);
   pr.displaced_list.clear();
-  pr.displaced_list.reserve(n);
+  pr.displaced_list.reserve(displaced_room(n));
   pr.search_grid_valid = false;
   allocate_grid(c.search_grid, n, search_cell(c));
+  allocate_grid(c.displaced_grid, displaced_room(n), search_cell(c));
 }
 
 // Every buffer of the pair list and grid, for the current particle count (the list is built on the

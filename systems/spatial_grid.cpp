@@ -41,4 +41,31 @@ void build_grid(SpatialGrid& g, const std::vector<Vec3>& points) {
   }, 4096);
 }
 
+void build_grid_of(SpatialGrid& g, const std::vector<Vec3>& points, const std::vector<std::uint32_t>& subset) {
+  auto& [cell, mask, cell_of, bucket, start, cursor, sorted, sorted_key, sorted_position] = g;
+  const std::size_t n = subset.size(), room = start.size() - 1;
+  std::uint32_t table = 1024;
+  while (table < 2 * n && table < room) table <<= 1;
+  mask = table - 1;
+  const double inv_cell = 1.0 / cell;
+  // As build_grid, over the subset's entries a (point subset[a]); the sort moves entry numbers, which
+  // the last pass turns into point indices.
+  parallel_for_each(n, [&](std::size_t a) {
+    const Cell c = cell_at(points[subset[a]], inv_cell);
+    cell_of[a] = key(c);
+    bucket[a] = hash(c, mask);
+  }, 4096);
+  std::fill(start.begin(), start.begin() + table + 1, 0u);
+  for (std::size_t a = 0; a < n; ++a) ++start[bucket[a] + 1];
+  for (std::size_t k = 1; k <= table; ++k) start[k] += start[k - 1];
+  std::copy(start.begin(), start.begin() + table, cursor.begin());
+  for (std::size_t a = 0; a < n; ++a) sorted[cursor[bucket[a]]++] = static_cast<std::uint32_t>(a);
+  parallel_for_each(n, [&](std::size_t q) {
+    const std::uint32_t a = sorted[q];
+    sorted_key[q] = cell_of[a];
+    sorted_position[q] = points[subset[a]];
+    sorted[q] = subset[a];
+  }, 4096);
+}
+
 }  // namespace perifx::systems

@@ -194,5 +194,10 @@ void for_each_near_forward(const SpatialGrid& g, const Vec3& y, std::uint32_t se
 void allocate_grid(SpatialGrid& grid, std::size_t n, double cell_edge);
 // Sorts the n points (n as allocated) into the grid; parallel cells, serial counting sort. No allocation.
 void build_grid(SpatialGrid& grid, const std::vector<Vec3>& points);
+// Sorts the points subset[0..) (at most as many as allocated) into the grid, which then names them by
+// their index in `points` (sorted[q] = subset[a]). The table is sized for the subset (≥ 2 entries per
+// point, ≥ 1024, at most as allocated), so a small subset in a large allocation clears a small table.
+// Stable: slots of a bucket in subset order. No allocation.
+void build_grid_of(SpatialGrid& grid, const std::vector<Vec3>& points, const std::vector<std::uint32_t>& subset);
 
 }  // namespace perifx::systems

@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'P', 'E', 'R', 'I', 'F', 'X', 'C', 'K'};
-constexpr std::uint32_t kVersion = 22;  // 2: embedded.held_deformation, embedded.held_tracked;
+constexpr std::uint32_t kVersion = 23;  // 2: embedded.held_deformation, embedded.held_tracked;
                                        // 3: contact moved-particle updates (per-particle search positions);
                                        // 4: no per-bond |ξ|, ω, mirror index; e^p as float (issue 16);
                                        // 5: model.anisotropy_metric (GᵀG per particle);
@@ -38,6 +38,7 @@ constexpr std::uint32_t kVersion = 22;  // 2: embedded.held_deformation, embedde
                                        // 20: contact.pairs.resort
                                        // 21: contact.pairs.length (rows with spare capacity)
                                        // 22: contact.search_grid, contact.pairs.displaced(_list)
+                                       // 23: contact.displaced_grid
 
 // Not saved: worker-slot scratch (sized by the thread count, so a resume on another thread count keeps
 // its own) and the projectiles' per-block contact lists (refilled by every step before any reads).
@@ -61,6 +62,8 @@ void for_each_scalar(W& w, F&& f) {
   f(c.grid.mask);
   f(c.search_grid.cell);
   f(c.search_grid.mask);
+  f(c.displaced_grid.cell);
+  f(c.displaced_grid.mask);
   f(c.pairs.skin);
   f(c.pairs.stamp_base);
   f(c.pairs.broken_at_build);
@@ -72,6 +75,7 @@ void for_each_scalar(W& w, F&& f) {
   f(c.pairs.layouts);
   f(c.pairs.search_grid_valid);
   f(c.pairs.search_grid_builds);
+  f(c.pairs.displaced_grid_builds);
   auto& e = w.embedded;
   f(e.crack_faces_total);
   f(e.vertex_copies_total);

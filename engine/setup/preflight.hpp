@@ -15,8 +15,8 @@ namespace perifx::setup {
 // bond 5 B (neighbour, alive flag), 8 B more when some material can yield (e^p and its mirror, float),
 // 4 B more when a weak plane cuts bonds, 1 bit more in the contact list when particle contact is on
 // (bytes_per_bond); 377–518 B per particle (the most with a collider's surface frames: fig16 full),
-// 328–339 B more in the contact grids and pair list when contact is on (240–251 B until the update's
-// search grid, 2026-12-07: fig16 and fig01 previews); the tet mesh and the embedded
+// 337–348 B more in the contact grids and pair list when contact is on (240–251 B until the update's
+// search grid, 328–339 B until the displaced grid, both 2026-12-07: fig16 and fig01 previews); the tet mesh and the embedded
 // mesh 393 B per tet (fig01 preview, fig16 full). Setup holds transient arrays on top (adjacency, Morton
 // keys, the one-sided bond check's cursors; the family lists were one until they became the bond
 // array itself), hence the peak factor: the full bunny's peak RSS in one process is 1.09 GiB
@@ -27,7 +27,7 @@ inline constexpr double kBytesPerBondPlastic = 8.0;
 inline constexpr double kBytesPerBondScale = 4.0;
 inline constexpr double kBytesPerBondContact = 0.125;
 inline constexpr double kBytesPerParticle = 520.0;
-inline constexpr double kBytesPerParticleContact = 340.0;
+inline constexpr double kBytesPerParticleContact = 350.0;
 inline constexpr double kBytesPerTet = 400.0;
 inline constexpr double kPeakFactor = 1.25;
 

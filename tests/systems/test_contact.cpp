@@ -311,7 +311,8 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
                  << "; one-sided entries " << one_sided << "; lists with a pair twice " << duplicated
                  << "; listed pairs within d_c " << touching << ", in the far part " << far_touching
                  << "; rows beyond their room " << overfull << "; rows laid out anew " << w.contact.pairs.layouts
-                 << " times; search grid built " << w.contact.pairs.search_grid_builds << " times");
+                 << " times; search grid built " << w.contact.pairs.search_grid_builds << " times, displaced grid "
+                 << w.contact.pairs.displaced_grid_builds << " times");
   CHECK(world.bond_count() > world.alive_bond_count());  // bonds broke, so the list had to follow
   CHECK(close_pairs > 0);
   CHECK(missing == 0);
@@ -325,6 +326,7 @@ TEST_CASE("the contact pair list holds every unbonded pair within the contact di
   CHECK(w.contact.pairs.layouts > 0);          // and so was a row outgrowing its room
   CHECK(w.contact.pairs.search_grid_builds > 0);  // and the search grid, built anew and
   CHECK(w.contact.pairs.search_grid_builds < w.contact.pairs.partial_updates);  // reused with displaced particles
+  CHECK(w.contact.pairs.displaced_grid_builds > 0);  // found through their own grid
 }
 
 TEST_CASE("a projectile first touches a body where its mesh surface is, at any resolution") {

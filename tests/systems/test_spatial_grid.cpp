@@ -81,3 +81,40 @@ TEST_CASE("spatial grid: the within-radius visits are the neighbourhood visits f
   }
   CHECK(visits > 30000);  // about 20 points within reach of each
 }
+
+TEST_CASE("spatial grid: a grid of a subset finds exactly the subset's points within reach, by their own index") {
+  // build_grid_of (the contact update's grid of the particles searched since the search grid was
+  // built): a subset of every third point, in a grid allocated for fewer points than the whole set (so
+  // its table is sized for the subset, not for the allocation), built twice with subsets of different
+  // sizes: every query must find exactly the subset's points within the reach, named by their index in
+  // the whole set, each once.
+  std::mt19937_64 rng(4242);
+  std::uniform_real_distribution<double> u(-0.05, 0.05);
+  std::vector<Vec3> points;
+  for (int i = 0; i < 6000; ++i) points.emplace_back(u(rng), u(rng), u(rng));
+  const double reach = 0.012, r2 = reach * reach;
+  SpatialGrid g;
+  systems::allocate_grid(g, 2100, reach);
+  for (const std::uint32_t stride : {3u, 7u}) {
+    std::vector<std::uint32_t> subset;
+    for (std::uint32_t i = stride / 2; i < points.size(); i += stride) subset.push_back(i);
+    systems::build_grid_of(g, points, subset);
+    CHECK(g.mask + 1 >= 2 * subset.size());
+    CHECK(g.start[g.mask + 1] == subset.size());  // every entry is in some bucket
+    std::size_t found = 0, wrong = 0;
+    for (std::uint32_t i = 0; i < points.size(); i += 5) {
+      std::vector<std::uint32_t> grid_hits, brute;
+      systems::for_each_within(g, points[i], r2, [&](std::uint32_t q) {
+        grid_hits.push_back(g.sorted[q]);
+        wrong += (g.sorted_position[q].array() != points[g.sorted[q]].array()).any();
+      });
+      for (const std::uint32_t j : subset)
+        if ((points[j] - points[i]).squaredNorm() < r2) brute.push_back(j);
+      std::sort(grid_hits.begin(), grid_hits.end());
+      CHECK(grid_hits == brute);
+      found += brute.size();
+    }
+    CHECK(wrong == 0);
+    CHECK(found > 1000);  // the queries find many points
+  }
+}
