@@ -204,6 +204,10 @@ std::size_t displaced_room(std::size_t n) { return n / kDisplacedShare + 1; }
 // the current positions is built and searched as a full rebuild does (for_each_candidate): the search
 // grid would then be built every few updates, and its cells, 0.3 skin wider, hold twice the candidates.
 enum class UpdateSearch { current_grid, search_grid, search_and_displaced_grids };
+void forget_displaced(ContactPairs& pr) {
+  for (const std::uint32_t i : pr.displaced_list) pr.displaced[i] = 0;
+  pr.displaced_list.clear();
+}
 UpdateSearch prepare_search_grid(WorldState& w, const Vec3& centroid) {
   auto& c = w.contact;
   auto& pr = c.pairs;
@@ -214,8 +218,7 @@ UpdateSearch prepare_search_grid(WorldState& w, const Vec3& centroid) {
     pr.built_position[i] = p.position[i] - centroid;
   }, 256);
   if (32 * m > n) {
-    for (const std::uint32_t i : pr.displaced_list) pr.displaced[i] = 0;
-    pr.displaced_list.clear();
+    forget_displaced(pr);
     pr.search_grid_valid = false;
     build_grid(c.grid, p.position);
     return UpdateSearch::current_grid;
@@ -233,8 +236,7 @@ UpdateSearch prepare_search_grid(WorldState& w, const Vec3& centroid) {
     ++pr.displaced_grid_builds;
     return UpdateSearch::search_and_displaced_grids;
   }
-  for (const std::uint32_t i : pr.displaced_list) pr.displaced[i] = 0;
-  pr.displaced_list.clear();
+  forget_displaced(pr);
   build_grid(c.search_grid, pr.built_position);
   pr.search_grid_valid = true;
   ++pr.search_grid_builds;
