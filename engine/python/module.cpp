@@ -176,6 +176,18 @@ PYBIND11_MODULE(perifx, m) {
              return out;
            })
       .def("memory_bytes", [](const World& w) { return w.memory().total_bytes; })
+      .def("memory", [](const World& w) {
+             const auto m = w.memory();
+             py::dict out;
+             out["particle_bytes"] = m.particle_bytes;
+             out["bond_bytes"] = m.bond_bytes;
+             out["mesh_bytes"] = m.mesh_bytes;
+             out["contact_bytes"] = m.contact_bytes;
+             out["other_bytes"] = m.other_bytes;
+             out["total_bytes"] = m.total_bytes;
+             return out;
+           }, "bytes the world's arrays hold (their capacity), by kind: dict of particle_bytes, bond_bytes, "
+              "mesh_bytes, contact_bytes, other_bytes, total_bytes")
       .def("set_profiling", &World::set_profiling, py::arg("on"),
            "time every system of the step from now on, running them one at a time (off by default)")
       .def("system_times", [](const World& w) {

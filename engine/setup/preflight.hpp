@@ -22,6 +22,12 @@ namespace perifx::setup {
 // array itself), hence the peak factor: the full bunny's peak RSS in one process is 1.09 GiB
 // (1.167 GB on 1 and on 2 threads, with release_freed_memory_promptly below) against 1003 MiB of arrays
 // and an estimate of 1.15 GiB (test `preflight: …` holds the estimate above what the world holds).
+// The same factor covers what a shattering run adds once set-up's transients are gone: the contact rows
+// keep room to grow (row_capacity in systems/contact.cpp) and crack faces split the embedded mesh. Grown
+// arrays at the end of each preview (World::memory, 2026-12-07): fig01 brittle, the most shattered
+// (2,447 pieces of 9,600 particles), +23 % (contact +229 B and mesh +149 B per particle), where the
+// estimate is 1.31× what the world then holds; the bunny +3.8 %, fig15 +3.9 %, fig17 +2.3 %, the
+// showcase +2.8 %. The test steps mpi_impact.json to its end and checks it again.
 inline constexpr double kBytesPerBondState = 5.0;
 inline constexpr double kBytesPerBondPlastic = 8.0;
 inline constexpr double kBytesPerBondScale = 4.0;

@@ -77,6 +77,19 @@ def test_two_worlds_side_by_side():
     assert np.array_equal(a.positions(), c.positions())  # bit-identical on another thread count
 
 
+def test_memory_by_kind_adds_up_and_grows_only_where_a_run_grows():
+    # World::memory by kind: the parts sum to the total, the bond arrays are 5 B per directed bond in
+    # an elastic, unbreakable world (components/bonds.hpp: neighbour + alive), and stepping an intact
+    # cube changes nothing (no contact rows, no split mesh).
+    w = perifx.World(small_scene(), threads=1)
+    m = w.memory()
+    kinds = ["particle_bytes", "bond_bytes", "mesh_bytes", "contact_bytes", "other_bytes"]
+    assert sum(m[k] for k in kinds) == m["total_bytes"] == w.memory_bytes()
+    assert m["bond_bytes"] >= 5 * w.bond_count and m["bond_bytes"] < 5.5 * w.bond_count
+    w.step(20)
+    assert w.memory() == m
+
+
 def test_surface_and_pieces():
     w = perifx.World(str(WALL))
     w.step(60)
