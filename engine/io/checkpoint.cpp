@@ -3,6 +3,7 @@
 
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <set>
 #include <string_view>
 
@@ -89,13 +90,26 @@ void for_each_scalar(W& w, F&& f) {
   throw IoError("cannot resume from checkpoint '" + file.string() + "': " + why);
 }
 
+// Reads the file in place, array by array, straight into the world's arrays. Why not the whole file
+// into memory first (as it once did, twice: once for the header): a resume then held the world and the
+// file's bytes at once, 2.89 GiB at the glass-wall shot's step 2,000 against 1.43 GiB for the run that
+// wrote it. Every length is checked against what is left of the file before anything is allocated, so
+// a damaged count is refused as a truncated file rather than attempted.
 class Reader {
  public:
-  Reader(std::string data, fs::path file) : data_(std::move(data)), file_(std::move(file)) {}
+  explicit Reader(fs::path file) : file_(std::move(file)) {
+    std::error_code ec;
+    size_ = fs::file_size(file_, ec);
+    if (ec) bad(file_, "cannot read its size (" + ec.message() + ")");
+    in_.open(file_, std::ios::binary);
+    if (!in_) bad(file_, "cannot open it");
+  }
+  std::uint64_t left() const { return size_ - at_; }
   void read(void* out, std::size_t n) {
-    if (n > data_.size() - at_) bad(file_, "the file is truncated");
-    if (n == 0) return;  // an empty array's data() may be null, which memcpy must not get (UBSan)
-    std::memcpy(out, data_.data() + at_, n);
+    if (n > left()) bad(file_, "the file is truncated");
+    if (n == 0) return;  // an empty array's data() may be null
+    in_.read(static_cast<char*>(out), static_cast<std::streamsize>(n));
+    if (!in_) bad(file_, "a read failed");
     at_ += n;
   }
   template <class T>
@@ -106,17 +120,18 @@ class Reader {
   }
   std::string text() {
     const auto n = value<std::uint64_t>();
-    if (n > data_.size() - at_) bad(file_, "the file is truncated");
-    std::string s = data_.substr(at_, n);
-    at_ += n;
+    if (n > left()) bad(file_, "the file is truncated");
+    std::string s(n, '\0');
+    read(s.data(), n);
     return s;
   }
   const fs::path& file() const { return file_; }
 
  private:
-  std::string data_;
   fs::path file_;
-  std::size_t at_ = 0;
+  std::ifstream in_;
+  std::uint64_t size_ = 0;
+  std::uint64_t at_ = 0;
 };
 
 void put_text(std::ostream& out, const std::string& s) {
@@ -189,7 +204,7 @@ void write_checkpoint(const fs::path& file, const WorldState& w, CheckpointHeade
 
 CheckpointHeader read_checkpoint_header(const fs::path& file) {
   if (!fs::exists(file)) bad(file, "no such file");
-  Reader in(read_file(file, "checkpoint"), file);
+  Reader in(file);
   return read_header(in);
 }
 
@@ -230,7 +245,7 @@ std::string checkpoint_mismatch(const CheckpointHeader& h, const std::string& sc
 
 CheckpointHeader read_checkpoint(const fs::path& file, WorldState& w) {
   if (!fs::exists(file)) bad(file, "no such file");
-  Reader in(read_file(file, "checkpoint"), file);
+  Reader in(file);
   CheckpointHeader h = read_header(in);
   for_each_array(w, [&](ArrayKind, const char* name, auto& array) {
     if (not_saved(name)) return;
@@ -239,6 +254,7 @@ CheckpointHeader read_checkpoint(const fs::path& file, WorldState& w) {
     const auto size = in.value<std::uint32_t>();
     const auto count = in.value<std::uint64_t>();
     if (size != sizeof(T)) bad(file, std::string("array '") + name + "' has elements of another size");
+    if (count > in.left() / sizeof(T)) bad(file, "the file is truncated");
     array.resize(count);
     in.read(array.data(), count * sizeof(T));
   });

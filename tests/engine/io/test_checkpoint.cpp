@@ -63,6 +63,24 @@ TEST_CASE("checkpoint: a restored world has every array's bytes and steps on bit
     World c(sc);
     CHECK_THROWS_WITH_AS(c.load_checkpoint(file), doctest::Contains("the file is truncated"), io::IoError);
   }
+  SUBCASE("a damaged array length is refused as a truncated file, before anything is allocated") {
+    // The first array's element count (after the magic, the version, the header text, the array's name
+    // and its element size) set to 2^62: read in place, the reader checks it against what is left.
+    std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+    std::uint64_t at = 8 + 4, n = 0;
+    f.seekg(std::streamoff(at));
+    f.read(reinterpret_cast<char*>(&n), sizeof n);
+    at += 8 + n;  // the header text
+    f.seekg(std::streamoff(at));
+    f.read(reinterpret_cast<char*>(&n), sizeof n);
+    at += 8 + n + 4;  // the first array's name and element size
+    const std::uint64_t huge = std::uint64_t{1} << 62;
+    f.seekp(std::streamoff(at));
+    f.write(reinterpret_cast<const char*>(&huge), sizeof huge);
+    f.close();
+    World c(sc);
+    CHECK_THROWS_WITH_AS(c.load_checkpoint(file), doctest::Contains("the file is truncated"), io::IoError);
+  }
   SUBCASE("a file that is not a checkpoint is refused") {
     std::ofstream(file) << "{\"this\": \"is JSON, not a checkpoint\"}";
     World c(sc);
@@ -78,3 +96,4 @@ TEST_CASE("checkpoint: a restored world has every array's bytes and steps on bit
   }
   fs::remove(file);
 }
+
