@@ -84,6 +84,15 @@ void release_arrays(WorldState& w) {
   for_each_array(w, [](ArrayKind, const char*, auto& array) { std::remove_reference_t<decltype(array)>().swap(array); });
 }
 
+void release_contact_buffers(WorldState& w) {
+  for_each_array(w, [](ArrayKind kind, const char* name, auto& array) {
+    if (kind == ArrayKind::contact && std::string_view(name) != "contact.size")  // the colliders' reach reads it
+      std::remove_reference_t<decltype(array)>().swap(array);
+  });
+  w.contact.pairs.valid = false;
+  w.contact.pairs.search_grid_valid = false;
+}
+
 std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Scheduler& scheduler,
                                               std::vector<PhaseTime>* times, bool shell) {
   // Phase timer: each call closes the phase that began at the previous one.

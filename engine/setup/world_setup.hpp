@@ -36,6 +36,11 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
 void check_solver(const scene::Scene& scene);
 // Frees every array for_each_array lists (a shell; a distributed run's other ranks after a split).
 void release_arrays(WorldState& w);
+// Frees the contact grids and pair list (every ArrayKind::contact array but the per-particle sizes) and
+// marks the list unbuilt: a distributed run's rank 0 keeps the whole world for output, checkpoints and
+// re-splits, but steps only its local world, whose contact buffers are its own. World::load_checkpoint
+// allocates them again when one process resumes such a whole world's checkpoint.
+void release_contact_buffers(WorldState& w);
 
 // bodies.cpp: bodies, particles and their mesh (appends to w.particles, w.mesh, w.bodies, w.model.horizon).
 void add_bodies(const scene::Scene& scene, WorldState& w);

@@ -12,6 +12,7 @@
 
 #include "components/world_state.hpp"
 #include "perifx/world.hpp"
+#include "setup/world_setup.hpp"
 
 namespace fs = std::filesystem;
 using namespace perifx;
@@ -97,3 +98,37 @@ TEST_CASE("checkpoint: a restored world has every array's bytes and steps on bit
   fs::remove(file);
 }
 
+TEST_CASE("checkpoint: a whole world written without its contact buffers resumes in one process bit for bit") {
+  // A distributed run's rank 0 releases its whole world's contact grids and pair list
+  // (setup::release_contact_buffers) and writes checkpoints from that world. One process resuming such a
+  // checkpoint allocates the buffers again and builds the list on its next step: the same forces, so the
+  // same bits as resuming a checkpoint that kept them.
+  auto sc = scene::load_scene_file(kWall);
+  sc.threads = 2;
+  World a(sc);
+  a.step(60);  // broken bonds, pieces and a built pair list
+  REQUIRE(a.state().contact.enabled);
+  REQUIRE(a.state().contact.pairs.valid);
+  const std::string stem = "perifx_checkpoint_released_" + std::to_string(::getpid());
+  const fs::path kept = fs::temp_directory_path() / (stem + "_kept.bin");
+  const fs::path released = fs::temp_directory_path() / (stem + "_released.bin");
+  a.save_checkpoint(kept, "");
+  const std::size_t contact_before = a.memory().contact_bytes;
+  setup::release_contact_buffers(a.state_mutable());
+  CHECK(a.memory().contact_bytes == a.state().contact.size.capacity() * sizeof(double));  // only the sizes
+  CHECK(a.memory().contact_bytes < contact_before / 10);
+  a.save_checkpoint(released, "");
+  CHECK(fs::file_size(released) < fs::file_size(kept));
+  World b(sc), c(sc);
+  b.load_checkpoint(kept);
+  c.load_checkpoint(released);
+  CHECK_FALSE(c.state().contact.pairs.valid);
+  CHECK(c.state().contact.grid.start.size() == b.state().contact.grid.start.size());  // allocated again
+  b.step(40);
+  c.step(40);
+  CHECK(std::memcmp(b.positions().data(), c.positions().data(), b.positions().size_bytes()) == 0);
+  CHECK(std::memcmp(b.velocities().data(), c.velocities().data(), b.velocities().size_bytes()) == 0);
+  CHECK(b.alive_bond_count() == c.alive_bond_count());
+  fs::remove(kept);
+  fs::remove(released);
+}
