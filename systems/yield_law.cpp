@@ -65,4 +65,32 @@ double offset_yield_ratio(double kappa, double mu, double flow_stress, double of
   return std::numeric_limits<double>::quiet_NaN();
 }
 
+double flow_stress_for_offset_yield(double kappa, double mu, double offset_yield, double offset_strain) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  if (!(kappa > 0.0 && mu > 0.0 && offset_yield > 0.0 && offset_strain > 0.0) || !std::isfinite(offset_yield)) return kNaN;
+  // g(σ) = σ · ratio(σ) − Y, the offset stress of flow stress σ minus the target; increasing in σ.
+  auto g = [&](double flow) { return flow * offset_yield_ratio(kappa, mu, flow, offset_strain) - offset_yield; };
+  double lo = offset_yield, hi = offset_yield / (0.3 * std::sqrt(3.0)) * 1.01;  // g(lo) ≤ 0 ≤ g(hi)
+  double g_lo = g(lo), g_hi = g(hi);
+  if (!(g_lo <= 0.0 && g_hi >= 0.0)) return kNaN;
+  if (g_lo == 0.0) return lo;
+  int side = 0;  // which end stayed last time (Illinois: halve its value so the bracket closes from both sides)
+  for (int it = 0; it < 100; ++it) {
+    const double mid = (lo * g_hi - hi * g_lo) / (g_hi - g_lo), g_mid = g(mid);
+    if (!std::isfinite(g_mid)) return kNaN;
+    if (g_mid == 0.0 || hi - lo <= 1e-10 * mid) return mid;
+    if (g_mid < 0.0) {
+      lo = mid, g_lo = g_mid;
+      if (side == -1) g_hi *= 0.5;
+      side = -1;
+    } else {
+      hi = mid, g_hi = g_mid;
+      if (side == 1) g_lo *= 0.5;
+      side = 1;
+    }
+    if (std::abs(g_mid) <= 1e-10 * offset_yield) return mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
 }  // namespace perifx::systems

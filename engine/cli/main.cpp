@@ -340,6 +340,9 @@ int cmd_info(const Args& a) {
     if (m.yield_stress > 0.0 && std::isfinite(m.yield_stress))
       line << ", yield_stress " << m.yield_stress << " Pa (the flow stress; 0.2 % offset yield "
            << perifx::systems::offset_yield_ratio(kappa, mu, m.yield_stress) << " of it)";
+    else if (m.offset_yield_stress > 0.0 && std::isfinite(m.offset_yield_stress))
+      line << ", offset_yield_stress " << m.offset_yield_stress << " Pa (0.2 % offset; the flow stress it sets is "
+           << perifx::systems::flow_stress_for_offset_yield(kappa, mu, m.offset_yield_stress) << " Pa)";
     else if (std::isfinite(m.yield_energy)) line << ", yield_energy " << m.yield_energy;
     std::cout << line.str() << "\n";
   }

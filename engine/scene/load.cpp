@@ -324,12 +324,26 @@ class Converter {
     };
     model_or_physical("critical_stretch", "fracture_energy", preset ? preset->fracture_energy : 0.0,
                       out.critical_stretch, out.fracture_energy);
-    model_or_physical("yield_energy", "yield_stress", preset ? preset->yield_stress : 0.0, out.yield_energy,
-                      out.yield_stress);
+    // The yield comes from one of three keys: yield_energy (model units), yield_stress (the flow
+    // stress) or offset_yield_stress (a datasheet's 0.2 % proof stress, converted at set-up).
+    if (m.contains("offset_yield_stress")) {
+      for (const char* other : {"yield_energy", "yield_stress"})
+        if (m.contains(other))
+          fail(p + "/offset_yield_stress", std::string("given together with ") + other + " (got " +
+                                               show(m["offset_yield_stress"]) +
+                                               "; expected one of yield_energy, yield_stress or offset_yield_stress)");
+      const double offset = num(m["offset_yield_stress"]);
+      if (std::isfinite(offset) && offset > 0.0) out.offset_yield_stress = offset;
+    } else {
+      const bool preset_offset = preset && preset->yield_is_offset && !m.contains("yield_energy") && !m.contains("yield_stress");
+      model_or_physical("yield_energy", "yield_stress", preset && !preset->yield_is_offset ? preset->yield_stress : 0.0,
+                        out.yield_energy, out.yield_stress);
+      if (preset_offset && std::isfinite(preset->yield_stress)) out.offset_yield_stress = preset->yield_stress;
+    }
     // A physical yield stress means perfect plasticity unless the scene caps it.
-    out.plastic_cap_ratio = m.contains("plastic_cap_ratio") ? num(m["plastic_cap_ratio"])
-                            : out.yield_stress > 0.0         ? kInfinity
-                                                             : 0.0;
+    out.plastic_cap_ratio = m.contains("plastic_cap_ratio")                       ? num(m["plastic_cap_ratio"])
+                            : out.yield_stress > 0.0 || out.offset_yield_stress > 0.0 ? kInfinity
+                                                                                   : 0.0;
     out.damage_alpha = num(m["damage_alpha"]);
     out.damping = num(m["damping"]);
     if (m.contains("anisotropy")) {

@@ -13,7 +13,9 @@ struct MaterialPreset {
   double youngs_modulus;   // Pa
   double poisson_ratio;
   double fracture_energy;  // G_c, J/m² (+∞: unbreakable)
-  double yield_stress;     // σ_y, Pa (+∞: elastic up to fracture)
+  double yield_stress;     // Pa (+∞: elastic up to fracture): the 0.2 % offset yield stress when
+                           // yield_is_offset (a datasheet's yield strength), else the flow stress σ_y
+  bool yield_is_offset;
   double grain_ratio;      // anisotropy along the grain (x axis): ratio_along = grain_ratio, across = 1; 1 = isotropic
   const char* source;      // where the numbers come from (markdown)
 };

@@ -82,26 +82,36 @@ Key build_spec() {
       "Named materials; bodies refer to them by name (names cannot start with `_`). Give the moduli "
       "(`bulk_modulus` + `shear_modulus`, or `youngs_modulus` + `poisson_ratio`), or a `preset`.", {
       choice("preset", preset_names(),
-             "Real-world values (see Material presets below): fills density, moduli, fracture_energy, yield_stress "
-             "and, for wood, the grain anisotropy; every other key given in this material overrides the preset's "
-             "value (a moduli pair replaces both moduli; critical_stretch replaces fracture_energy, yield_energy "
-             "replaces yield_stress)."),
+             "Real-world values (see Material presets below): fills density, moduli, fracture_energy, the yield "
+             "(offset_yield_stress for the metals, yield_stress for clay) and, for wood, the grain anisotropy; every "
+             "other key given in this material overrides the preset's value (a moduli pair replaces both moduli; "
+             "critical_stretch replaces fracture_energy; yield_energy, yield_stress or offset_yield_stress replaces "
+             "the preset's yield)."),
       number("density", "Mass density ρ, kg/m³.").ge(1e-3).le(1e6).def_text("1000, or the preset's"),
       number("bulk_modulus", "Bulk modulus κ, Pa.").gt(0),
       number("shear_modulus", "Shear modulus μ, Pa.").gt(0),
       number("youngs_modulus", "Young's modulus E, Pa. With ν: κ = E/(3(1−2ν)), μ = E/(2(1+ν)).").gt(0),
       number("poisson_ratio", "Poisson's ratio ν.").gt(-1).lt(0.5),
       number("yield_energy", "Plastic yield energy Ψ0 (Eq 13), in model units that depend on the horizon; "
-                             "\"inf\" = purely elastic. Prefer `yield_stress`. Not with `yield_stress`.")
+                             "\"inf\" = purely elastic. Prefer `yield_stress` or `offset_yield_stress`; not "
+                             "with either.")
           .gt(0).or_inf().def_text("\"inf\" (or from `yield_stress`)"),
       number("yield_stress", "Yield stress σ_y, Pa (uniaxial tension flow stress); perifx derives the yield "
                              "parameter for each body's horizon, so the material yields at σ_y at any "
                              "resolution (systems/README.md §12). The paper's per-bond law yields gradually, "
                              "so its 0.2 % offset yield stress is lower: 0.98 σ_y at steel's σ_y/E, 0.93 at "
-                             "aluminium's (§12.2). \"inf\" = purely elastic. Not with `yield_energy`.")
+                             "aluminium's (§12.2); give `offset_yield_stress` instead for a datasheet's yield "
+                             "strength. \"inf\" = purely elastic. Not with `yield_energy` or `offset_yield_stress`.")
+          .gt(0).or_inf(),
+      number("offset_yield_stress", "0.2 % offset yield stress σ_p0.2 (proof stress R_p0.2), Pa: what datasheets "
+                                    "list as yield strength. perifx finds the flow stress σ_y at which the paper's "
+                                    "per-bond law has this offset yield (1.02 × it for the steel preset, 1.08 × for "
+                                    "aluminium; systems/README.md §12.2) and yields from it as from `yield_stress`. "
+                                    "\"inf\" = purely elastic. Not with `yield_energy` or `yield_stress`.")
           .gt(0).or_inf(),
       number("plastic_cap_ratio", "Plastic cap γ/|ξ| (Eq 16); \"inf\" = no cap.").ge(0).or_inf()
-          .def_text("0 (no plastic flow), or \"inf\" when the yield comes from `yield_stress` or a preset"),
+          .def_text("0 (no plastic flow), or \"inf\" when the yield comes from `yield_stress`, "
+                    "`offset_yield_stress` or a preset"),
       number("critical_stretch", "Critical bond stretch s_c (Eq 19), in model units that depend on the horizon; "
                                  "\"inf\" = unbreakable. Prefer `fracture_energy`. Not with `fracture_energy`.")
           .gt(0).or_inf().def_text("\"inf\" (or from `fracture_energy`)"),
@@ -1004,11 +1014,12 @@ material name, `<k>` for an array index.
        << doc << (f.derived ? " (derived on output)" : "") << " |\n";
   }
   md << "\n## Material presets\n\n`/materials/<name>/preset` fills these values (keys given beside it win). "
-        "G_c is `fracture_energy`, σ_y `yield_stress` (\"inf\": elastic up to fracture; with a finite σ_y the "
-        "plastic cap defaults to \"inf\"). Handbook values of a material class, rounded, room temperature and "
+        "G_c is `fracture_energy`; the yield is the metals' datasheet yield strength as `offset_yield_stress` "
+        "(σ_p0.2) and clay's flow stress as `yield_stress` (σ_y) (\"inf\": elastic up to fracture; with a finite "
+        "yield the plastic cap defaults to \"inf\"). Handbook values of a material class, rounded, room temperature and "
         "quasi-static; not a particular grade. The stable time step scales with √(ρ/E)·λ: stiff presets "
         "(steel, ceramic) need small steps (`perifx info` prints the limit).\n\n"
-        "| preset | ρ (kg/m³) | E (Pa) | ν | G_c (J/m²) | σ_y (Pa) | anisotropy | source |\n|---|---|---|---|---|---|---|---|\n";
+        "| preset | ρ (kg/m³) | E (Pa) | ν | G_c (J/m²) | yield (Pa) | anisotropy | source |\n|---|---|---|---|---|---|---|---|\n";
   for (const auto& p : detail::material_presets()) {
     auto num = [](double x) {
       std::ostringstream o;
@@ -1016,7 +1027,9 @@ material name, `<k>` for an array index.
       return std::isfinite(x) ? o.str() : std::string("inf");
     };
     md << "| `" << p.name << "` | " << num(p.density) << " | " << num(p.youngs_modulus) << " | " << num(p.poisson_ratio)
-       << " | " << num(p.fracture_energy) << " | " << num(p.yield_stress) << " | "
+       << " | " << num(p.fracture_energy) << " | "
+       << (std::isfinite(p.yield_stress) ? (p.yield_is_offset ? "σ_p0.2 " : "σ_y ") + num(p.yield_stress) : num(p.yield_stress))
+       << " | "
        << (p.grain_ratio != 1.0 ? "grain along x: axis [1, 0, 0], ratio_along " + num(p.grain_ratio) + ", ratio_across 1"
                                 : std::string("—"))
        << " | " << cell(p.source) << " |\n";

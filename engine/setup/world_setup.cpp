@@ -11,6 +11,7 @@
 #include "systems/huge_pages.hpp"
 #include "systems/parallel.hpp"
 #include "systems/systems.hpp"
+#include "systems/yield_law.hpp"
 
 namespace perifx::setup {
 namespace {
@@ -22,6 +23,16 @@ void resolve_settings(const scene::Scene& scene, StepSettings& s) {
   s.family = scene.family;
   s.solver = scene.solver;
   s.materials = scene.materials;
+  // A datasheet's yield strength (0.2 % offset) becomes the flow stress of the paper's per-bond law,
+  // which is what the model constants read (systems/yield_law.hpp).
+  for (auto& m : s.materials) {
+    if (!(m.yield_stress == 0.0 && m.offset_yield_stress > 0.0 && std::isfinite(m.offset_yield_stress))) continue;
+    m.yield_stress = systems::flow_stress_for_offset_yield(m.bulk_modulus, m.shear_modulus, m.offset_yield_stress);
+    if (!(m.yield_stress > 0.0 && std::isfinite(m.yield_stress)))
+      throw scene::SceneError(scene.source.string(), "/materials/" + m.name + "/offset_yield_stress",
+                              "no flow stress has this offset yield stress (got " + std::to_string(m.offset_yield_stress) +
+                                  " Pa; expected a positive stress, with positive moduli)");
+  }
   s.colliders = scene.colliders;
   s.contact = scene.contact;
   s.projectiles = scene.projectiles;
@@ -65,7 +76,8 @@ double max_speed(const scene::Scene& scene, const WorldState& w) {
 }  // namespace
 
 bool can_yield(const scene::Material& m) {
-  return std::isfinite(m.yield_energy) || (m.yield_stress > 0.0 && std::isfinite(m.yield_stress));
+  return std::isfinite(m.yield_energy) || (m.yield_stress > 0.0 && std::isfinite(m.yield_stress)) ||
+         (m.offset_yield_stress > 0.0 && std::isfinite(m.offset_yield_stress));
 }
 
 void check_solver(const scene::Scene& scene) {

@@ -32,3 +32,24 @@ TEST_CASE("yield law: the per-bond law yields first at 3 sqrt(3)/10 sigma_y, its
   CHECK(std::isnan(systems::offset_yield_ratio(kappa, mu, INFINITY)));
   CHECK(std::isnan(systems::offset_yield_ratio(kappa, 0.0, 1e4)));
 }
+
+TEST_CASE("yield law: the flow stress for a given 0.2 % offset yield stress inverts the offset ratio") {
+  const double kappa = 3.3e6, mu = 2.0e6, youngs = perifx::youngs_modulus(kappa, mu);
+  // Offset stresses at σ/E of 0.1 %, 0.4 % and 1 %: the flow stress found has exactly that offset yield
+  // under the law, and lies above it by the law's factor (about 1/0.93 at 0.4 %, as the table above).
+  for (double strain : {0.001, 0.004, 0.01}) {
+    const double offset = strain * youngs;
+    const double flow = systems::flow_stress_for_offset_yield(kappa, mu, offset);
+    CAPTURE(strain);
+    CHECK(flow * systems::offset_yield_ratio(kappa, mu, flow) == doctest::Approx(offset).epsilon(1e-8));
+    CHECK(flow > offset);
+    CHECK(flow < offset / (0.3 * std::sqrt(3.0)));  // the offset stress is above the first yield
+  }
+  const double aluminium = systems::flow_stress_for_offset_yield(kappa, mu, 0.004 * youngs) / (0.004 * youngs);
+  MESSAGE("flow stress / offset yield stress at sigma/E = 0.4 %: " << aluminium);
+  CHECK(aluminium > 1.0 / 0.9329);  // the flow stress's own σ/E is larger, where the knee is rounder
+  CHECK(aluminium < 1.1);
+  CHECK(std::isnan(systems::flow_stress_for_offset_yield(kappa, mu, 0.0)));
+  CHECK(std::isnan(systems::flow_stress_for_offset_yield(kappa, mu, INFINITY)));
+  CHECK(std::isnan(systems::flow_stress_for_offset_yield(kappa, -1.0, 1e4)));
+}

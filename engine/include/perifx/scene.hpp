@@ -65,6 +65,10 @@ struct Material {
   // converted per particle for its horizon by compute_model_constants.
   double fracture_energy = 0.0;        // G_c, J/m² (0: use critical_stretch)
   double yield_stress = 0.0;           // σ_y, Pa (0: use yield_energy); +∞ = purely elastic
+  // σ_p0.2, Pa (0: not given): the 0.2 % offset yield stress, what datasheets list as yield strength.
+  // When given (and yield_stress is 0), set-up converts it to the flow stress σ_y of the paper's
+  // per-bond law (systems/yield_law.hpp) and the world yields from that.
+  double offset_yield_stress = 0.0;
   std::string preset;                  // the `preset` it was filled from ("" = none), for messages
   StrengthField strength;              // spatial variation of s_c (empty = uniform)
   double damage_alpha = 0.0;           // α (Eq 19, systems/README.md §5 reading)

@@ -47,10 +47,13 @@ TEST_CASE("presets: every preset loads with its table values") {
     CHECK(m.fracture_energy == p.fracture_energy);
     CHECK(std::isinf(m.critical_stretch));  // derived from G_c per horizon at setup
     if (std::isfinite(p.yield_stress)) {
-      CHECK(m.yield_stress == p.yield_stress);
+      // The metals' datasheet yield strength is an offset (proof) stress; clay's is a flow stress.
+      CHECK(m.yield_stress == (p.yield_is_offset ? 0.0 : p.yield_stress));
+      CHECK(m.offset_yield_stress == (p.yield_is_offset ? p.yield_stress : 0.0));
       CHECK(std::isinf(m.plastic_cap_ratio));  // perfect plasticity unless capped
     } else {
       CHECK(m.yield_stress == 0.0);
+      CHECK(m.offset_yield_stress == 0.0);
       CHECK(m.plastic_cap_ratio == 0.0);
     }
     CHECK(std::isinf(m.yield_energy));
@@ -76,6 +79,7 @@ TEST_CASE("presets: keys given beside a preset override it") {
   CHECK(m.fracture_energy == 0.0);
   CHECK(m.yield_energy == 1e20);
   CHECK(m.yield_stress == 0.0);
+  CHECK(m.offset_yield_stress == 0.0);  // the preset's yield strength is replaced, not kept beside it
   CHECK(m.plastic_cap_ratio == 0.1);
   CHECK(m.anisotropy == Mat3(2.0 * Mat3::Identity()));
   const Scene g = load_scene_text(
@@ -83,6 +87,14 @@ TEST_CASE("presets: keys given beside a preset override it") {
       "presets.json");
   CHECK(g.materials[0].fracture_energy == 4);
   CHECK(g.materials[0].yield_stress == 1e8);
+  // Either physical yield key replaces the preset's yield: a flow stress, or another offset stress.
+  for (const char* key : {"yield_stress", "offset_yield_stress"}) {
+    Json material = Json::parse(R"({"preset": "aluminium"})");
+    material[key] = 1.5e8;
+    const Material& al = load_scene_text(with_material(material).dump(), "presets.json").materials[0];
+    CHECK(al.yield_stress == (std::string(key) == "yield_stress" ? 1.5e8 : 0.0));
+    CHECK(al.offset_yield_stress == (std::string(key) == "offset_yield_stress" ? 1.5e8 : 0.0));
+  }
   const Scene w = load_scene_text(with_material(Json::parse(R"({"preset": "wood"})")).dump(), "presets.json");
   CHECK(w.materials[0].anisotropy(0, 0) == 0.5);
   CHECK(w.materials[0].anisotropy(1, 1) == 1.0);
@@ -98,6 +110,14 @@ TEST_CASE("physical keys: one line errors for mixed or missing keys") {
                                                "yield_stress": 1e5})"))) ==
         "presets.json: /materials/m/yield_stress: given together with yield_energy (got 100000.0; expected either "
         "yield_energy or yield_stress, not both)");
+  CHECK(error_in(with_material(Json::parse(R"({"bulk_modulus": 1e6, "shear_modulus": 1e6, "yield_stress": 1e5,
+                                               "offset_yield_stress": 9e4})"))) ==
+        "presets.json: /materials/m/offset_yield_stress: given together with yield_stress (got 90000.0; expected one of "
+        "yield_energy, yield_stress or offset_yield_stress)");
+  CHECK(error_in(with_material(Json::parse(R"({"preset": "steel", "yield_energy": 1, "offset_yield_stress": 9e4})")))
+            .find("/materials/m/offset_yield_stress: given together with yield_energy") != std::string::npos);
+  CHECK(error_in(with_material(Json::parse(R"({"bulk_modulus": 1e6, "shear_modulus": 1e6, "offset_yield_stress": 0})")))
+            .find("/materials/m/offset_yield_stress") != std::string::npos);
   CHECK(error_in(with_material(Json::parse(R"({"density": 5})"))).find(
             "presets.json: /materials/m: missing keys (got {\"density\":5}; expected either") == 0);
   CHECK(error_in(with_material(Json::parse(R"({"bulk_modulus": 1e6, "shear_modulus": 1e6, "fracture_energy": -1})")))
@@ -111,6 +131,12 @@ TEST_CASE("physical keys: one line errors for mixed or missing keys") {
   CHECK(s.materials[0].fracture_energy == 10);
   CHECK(s.materials[0].yield_stress == 0.0);
   CHECK(std::isinf(s.materials[0].yield_energy));
+  const Scene o = load_scene_text(
+      with_material(Json::parse(R"({"bulk_modulus": 1e6, "shear_modulus": 1e6, "offset_yield_stress": 2e4})")).dump(),
+      "presets.json");
+  CHECK(o.materials[0].offset_yield_stress == 2e4);
+  CHECK(o.materials[0].yield_stress == 0.0);               // converted at set-up, not here
+  CHECK(std::isinf(o.materials[0].plastic_cap_ratio));     // perfect plasticity, as with yield_stress
 }
 
 TEST_CASE("strength: the scene keys convert, with region bodies resolved after the bodies") {
