@@ -201,6 +201,21 @@ TEST_CASE("cli: info prints each material in physical units, and what its yield 
                               "J/m^2, yield_stress 2e+04 Pa (the flow stress; 0.2 % offset yield " + ratio.str() + " of it)") !=
                     std::string::npos,
                 r.output);
+  // Given as a 0.2 % offset yield stress instead, info names the flow stress set-up derives from it.
+  const fs::path offset = write(dir, "offset.json", R"({
+    "time": { "dt": 1e-5, "duration": 0.01, "frame_rate": 100 },
+    "materials": { "metal": { "density": 2700, "youngs_modulus": 5e6, "poisson_ratio": 0.25, "offset_yield_stress": 2e4 } },
+    "bodies": [ { "material": "metal", "geometry": { "type": "box", "size": [0.1, 0.05, 0.05], "edge_length": 0.025 } } ]
+  })");
+  const auto o = run_cli("info " + offset.string());
+  REQUIRE_MESSAGE(o.code == 0, o.output);
+  std::ostringstream flow;
+  flow.precision(4);
+  flow << perifx::systems::flow_stress_for_offset_yield(5e6 / 1.5, 5e6 / 2.5, 2e4);
+  CHECK(flow.str() == "2.155e+04");  // 1.078 × the offset stress at σ/E = 0.4 %
+  CHECK_MESSAGE(o.output.find("offset_yield_stress 2e+04 Pa (0.2 % offset; the flow stress it sets is " + flow.str() + " Pa)") !=
+                    std::string::npos,
+                o.output);
   fs::remove_all(dir);
 }
 
