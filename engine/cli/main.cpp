@@ -328,7 +328,11 @@ int cmd_info(const Args& a) {
     std::cout << "body             " << b.name << ": " << b.particle_count << " particles, lambda " << b.mean_edge_length
               << " m, horizon " << b.horizon << " m\n";
   // Each material in physical units, and what its yield stress means for the per-bond law (§12.2).
-  for (const auto& m : world.scene().materials) {
+  // The flow stress set-up derived from an offset yield stress is read from the world's resolved
+  // materials (setup::resolve_settings), not derived a second time.
+  const auto& resolved = world.state().settings.materials;
+  for (std::size_t k = 0; k < world.scene().materials.size(); ++k) {
+    const perifx::scene::Material& m = world.scene().materials[k];
     const double kappa = m.bulk_modulus, mu = m.shear_modulus;
     std::ostringstream line;
     line.precision(4);
@@ -342,7 +346,7 @@ int cmd_info(const Args& a) {
            << perifx::systems::offset_yield_ratio(kappa, mu, m.yield_stress) << " of it)";
     else if (m.offset_yield_stress > 0.0 && std::isfinite(m.offset_yield_stress))
       line << ", offset_yield_stress " << m.offset_yield_stress << " Pa (0.2 % offset; the flow stress it sets is "
-           << perifx::systems::flow_stress_for_offset_yield(kappa, mu, m.offset_yield_stress) << " Pa)";
+           << resolved[k].yield_stress << " Pa)";
     else if (std::isfinite(m.yield_energy)) line << ", yield_energy " << m.yield_energy;
     std::cout << line.str() << "\n";
   }
