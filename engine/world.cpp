@@ -58,7 +58,10 @@ World::World(const scene::Scene& scene, WorldBuild build) : impl_(std::make_uniq
   impl_->scene = scene;
   impl_->scheduler = std::make_unique<Scheduler>(scene.threads);
   impl_->shell = build == WorldBuild::shell;
-  impl_->state = setup::build_world_state(scene, *impl_->scheduler, &impl_->setup_times, impl_->shell);
+  impl_->state = setup::build_world_state(scene, *impl_->scheduler, &impl_->setup_times, impl_->shell, &impl_->stable_dt);
+  // An automatic step was picked at set-up (a shell's arrives from rank 0 at the split): the scene this
+  // world reports says which.
+  impl_->scene.time.dt = impl_->state->clock.dt;
   impl_->build_step_graph();
 }
 
@@ -260,6 +263,7 @@ void World::split(const std::vector<::perifx::distributed::Domain>* domains, con
   frame.resize(whole[3]);
   distributed::broadcast_bytes(frame.data(), frame.size());
   if (!lead) distributed::take_world_frame(w, frame);  // the clock, bounds and bodies' measures
+  impl_->scene.time.dt = w.clock.dt;  // a shell's automatic step is rank 0's
   impl_->particles = whole[0];
   impl_->bonds = whole[1];
   impl_->embedded_mesh = whole[2] != 0;

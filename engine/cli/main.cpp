@@ -130,8 +130,10 @@ perifx::scene::Scene load(const Args& a) {
   // Checked before the scene is read, so a bad option is a usage error even for a bad scene.
   const std::optional<int> threads =
       a.threads ? std::optional<int>(static_cast<int>(parse_count("--threads", *a.threads, 1))) : std::nullopt;
+  const bool auto_dt = a.dt && *a.dt == "auto";
   const std::optional<double> dt =
-      a.dt ? std::optional<double>(parse_positive("--dt", *a.dt, "a positive number of seconds")) : std::nullopt;
+      a.dt && !auto_dt ? std::optional<double>(parse_positive("--dt", *a.dt, "a positive number of seconds or auto"))
+                       : std::nullopt;
   if (a.solver && *a.solver != "peridynamics" && *a.solver != "fem_linear" && *a.solver != "fem_corotated")
     throw UsageError{"--solver expects peridynamics, fem_linear or fem_corotated, got '" + *a.solver + "'"};
   auto sc = perifx::scene::load_scene_file(a.scene);
@@ -142,8 +144,10 @@ perifx::scene::Scene load(const Args& a) {
     sc.solver = *a.solver == "fem_linear" ? Solver::fem_linear
                 : *a.solver == "fem_corotated" ? Solver::fem_corotated : Solver::peridynamics;
   }
+  if (auto_dt) sc.time.auto_dt = true, sc.time.dt = 0.0;  // picked at set-up
   if (dt) {
     sc.time.dt = *dt;
+    sc.time.auto_dt = false;
     try {
       perifx::scene::check_time(sc);
     } catch (const perifx::scene::SceneError& e) {
@@ -287,6 +291,13 @@ int cmd_check(const Args& a) {
 bool report_time_step(const perifx::World& world, std::ostream& out) {
   const double dt = world.dt();
   char buf[256];
+  if (world.scene().time.auto_dt) {  // picked at set-up from the estimate (setup/world_setup.cpp)
+    const double stable = world.stable_time_step();
+    std::snprintf(buf, sizeof buf, "time step        %.3g s (auto: %.0f%% of the stable limit %.3g s, %.0f steps per frame)\n",
+                  dt, 100.0 * dt / stable, stable, 1.0 / (world.scene().time.frame_rate * dt));
+    out << buf;
+    return true;
+  }
   const double bound = world.stable_time_step_bound();
   if (bound > 0.0 && dt <= 0.8 * bound) {
     std::snprintf(buf, sizeof buf, "time step        %.3g s (stable: %.0f%% of %.3g s, a lower bound on the limit)\n", dt,
@@ -463,6 +474,13 @@ int cmd_run(const Args& a) {
   auto setup_scene = sc;
   if (distributed) setup_scene.threads = perifx::setup::setup_threads(sc.threads, a.mpi->rank(), placement);
   perifx::World world(setup_scene, distributed && a.mpi->rank() != 0 ? perifx::WorldBuild::shell : perifx::WorldBuild::whole);
+  if (frames && sc.time.auto_dt) {  // the step picked at set-up against --frames' duration (a shell has none yet)
+    try {
+      perifx::scene::check_time(world.scene(), *frames);
+    } catch (const perifx::scene::SceneError& e) {
+      throw UsageError{"--frames " + *a.frames + ": " + e.message()};
+    }
+  }
   const bool tty = ::isatty(STDERR_FILENO) && talk;
   if (talk)
     std::cerr << "perifx: " << world.scene().name << ": " << world.particle_count() << " particles, "
@@ -708,7 +726,7 @@ int cli_main(int argc, char** argv, const perifx::distributed::MpiSession& mpi) 
     sub->add_option("SCENE", a.scene, "scene file (JSON)")->required();
     text_option(sub, "--threads", a.threads, "worker threads (N >= 1)");
     text_option(sub, "--solver", a.solver, "peridynamics|fem_linear|fem_corotated (overrides the scene)");
-    text_option(sub, "--dt", a.dt, "time step in seconds (overrides the scene)");
+    text_option(sub, "--dt", a.dt, "time step in seconds, or auto (overrides the scene)");
   };
   CLI::App* run = app.add_subcommand("run", "simulate and write frames (VTU/VTP + PVD for ParaView, OBJ/PLY for Houdini, an OBJ + PC2 point cache for Blender, glTF for game engines)");
   scene_options(run);

@@ -153,8 +153,11 @@ class Converter {
     s.gravity = vec(j["gravity"]);
 
     const Json& t = j["time"];
-    s.time = {num(t["dt"]), num(t["duration"]), num(t["frame_rate"])};
-    if (s.time.dt > s.time.duration)
+    s.time.auto_dt = t["dt"].is_string();  // "auto" (the validator let no other string through)
+    s.time.dt = s.time.auto_dt ? 0.0 : num(t["dt"]);
+    s.time.duration = num(t["duration"]);
+    s.time.frame_rate = num(t["frame_rate"]);
+    if (!s.time.auto_dt && s.time.dt > s.time.duration)
       fail("/time/dt", "time step longer than the duration (got " + show(t["dt"]) +
                            "; expected at most duration = " + show(t["duration"]) + ")");
     check_time(s);
@@ -685,17 +688,20 @@ void check_time(const Scene& s, std::uint64_t frames_override) {
   };
   const double frames = frames_override ? double(frames_override) : std::floor(t.duration * t.frame_rate + 1e-9);
   const double duration = frames_override ? double(frames_override) / t.frame_rate : t.duration;
-  if (!(t.dt > 0.0) || !std::isfinite(t.dt))
-    throw SceneError(file, "/time/dt", "not a time step (got " + g(t.dt) + "; expected a positive number of seconds)");
-  if (!(t.frame_rate * t.dt <= 1.0))
-    throw SceneError(file, "/time/frame_rate", "frames closer together than one step (got " + g(t.frame_rate) +
-                                                   " frames/s; expected at most 1/dt = " + g(1.0 / t.dt) + ")");
   if (!(frames >= 1.0))
     throw SceneError(file, "/time/frame_rate", "no frame in the duration (got duration × frame_rate = " + g(frames) +
                                                    "; expected at least 1 frame after the initial one)");
   if (!(frames <= kMaxFrames))
     throw SceneError(file, "/time/frame_rate", "too many frames (got duration × frame_rate = " + g(frames) +
                                                    "; expected at most 1e6 frames)");
+  // An automatic step unresolved (a scene before a World picks it) has nothing more to check; a World
+  // checks the step it picks here too (setup/world_setup.cpp).
+  if (t.auto_dt && t.dt == 0.0) return;
+  if (!(t.dt > 0.0) || !std::isfinite(t.dt))
+    throw SceneError(file, "/time/dt", "not a time step (got " + g(t.dt) + "; expected a positive number of seconds)");
+  if (!(t.frame_rate * t.dt <= 1.0))
+    throw SceneError(file, "/time/frame_rate", "frames closer together than one step (got " + g(t.frame_rate) +
+                                                   " frames/s; expected at most 1/dt = " + g(1.0 / t.dt) + ")");
   if (!(duration / t.dt <= kMaxSteps))
     throw SceneError(file, "/time/dt", "too many steps: time step too small for the duration (got dt = " + g(t.dt) +
                                            " s for " + g(duration) + " s, " + g(duration / t.dt) +

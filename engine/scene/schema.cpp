@@ -371,11 +371,14 @@ Key build_spec() {
       vec3("gravity", "Gravitational acceleration, m/s² (Y is up).").def(Json::array({0, -9.81, 0})),
       object("time", "time", "Time stepping.", {
           number("dt", "Time step, s; at most `duration`, at least duration/1e9 (at most 1e9 steps), and at "
-                       "most the stable explicit limit (`perifx info`).").gt(0).req(),
+                       "most the stable explicit limit (`perifx info`). \"auto\": 80 % of the stable limit "
+                       "estimated for this scene's bodies at set-up, shortened so that a whole number of steps fills "
+                       "each frame interval; the same scene at a finer resolution then takes a smaller step by itself "
+                       "(systems/README.md §7).").gt(0).or_auto().def("auto"),
           number("duration", "Simulated time, s.").gt(0).def(1),
           number("frame_rate", "Output frames per simulated second; at most 1/dt (an error, not clamped) and "
                                "at most 1e6 frames in `duration`.").gt(0).def(24),
-      }).req(),
+      }).def(Json::object()),
       object("model", "model", "Peridynamic model options.", {
           choice("normalization", {"paper", "discrete", "corrected"},
                  "Normalization (systems/README.md §2.4): the paper's constants (Eq 6, 10), per-particle "
@@ -505,7 +508,8 @@ std::string count_text(std::size_t n) { return n ? ", at least " + std::to_strin
 // What a key accepts, in words; used by error messages and by the reference alike.
 std::string expected(const Key& k) {
   switch (k.type) {
-    case Type::number: return "a number" + range_text(k) + (k.allow_inf ? " or \"inf\"" : "");
+    case Type::number:
+      return "a number" + range_text(k) + (k.allow_inf ? " or \"inf\"" : "") + (k.allow_auto ? " or \"auto\"" : "");
     case Type::integer: return "an integer" + range_text(k);
     case Type::boolean: return "true or false";
     case Type::string: return k.allow_empty ? "a string" : "a non-empty string";
@@ -754,6 +758,10 @@ class Validator {
   }
 
   void number(const Key& k, Json& v, const std::string& ptr) const {
+    if (k.allow_auto && v.is_string() && lower(v.get<std::string>()) == "auto") {
+      v = "auto";
+      return;
+    }
     if (k.allow_inf && v.is_string()) {
       const std::string s = lower(v.get<std::string>());
       if (s == "inf" || s == "infinity") {
@@ -870,7 +878,7 @@ const std::string& example_scene() {
   "_comment": "keys starting with an underscore are ignored",
   "threads": 0,
   "gravity": [0, -9.81, 0],
-  "time": { "dt": 1e-5, "duration": 0.5, "frame_rate": 60 },
+  "time": { "dt": "auto", "duration": 0.5, "frame_rate": 60 },
   "model": { "normalization": "paper", "family": "mesh" },
   "materials": {
     "steel": { "density": 7850, "youngs_modulus": 2e11, "poisson_ratio": 0.3,

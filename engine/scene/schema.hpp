@@ -42,6 +42,7 @@ struct Key {
   double hi = std::numeric_limits<double>::infinity();
   bool lo_open = false, hi_open = false;
   bool allow_inf = false;       // number: "inf"/"infinity" means +∞ (JSON has no Infinity)
+  bool allow_auto = false;      // number: the string "auto" is kept for the converter to resolve
   bool nonzero = false;         // vec3: a direction, must not be [0, 0, 0]
   bool allow_empty = false;     // string
   std::size_t min_items = 0;    // map, array, string_list
@@ -64,6 +65,7 @@ struct Key {
   Key& lt(double v) { hi = v; hi_open = true; return *this; }
   Key& le(double v) { hi = v; hi_open = false; return *this; }
   Key& or_inf() { allow_inf = true; return *this; }
+  Key& or_auto() { allow_auto = true; return *this; }
   Key& not_zero() { nonzero = true; return *this; }
   Key& empty_ok() { allow_empty = true; return *this; }
   Key& at_least(std::size_t n) { min_items = n; return *this; }

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <string>
 #include <string_view>
 #include <type_traits>
 
@@ -50,7 +52,7 @@ void resolve_settings(const scene::Scene& scene, StepSettings& s) {
 // leaves room above it. A blow-up grows exponentially, so it crosses the bound within a few steps.
 constexpr double kMaxSpeedFactor = 10.0;
 
-double max_speed(const scene::Scene& scene, const WorldState& w) {
+double max_speed(const scene::Scene& scene, const WorldState& w, double dt) {
   double wave = 0.0;
   for (const auto& m : scene.materials) {
     // Anisotropy scales the stiffness by up to the largest |G| entry squared.
@@ -61,16 +63,46 @@ double max_speed(const scene::Scene& scene, const WorldState& w) {
   for (const Vec3& x : w.particles.reference_position) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
   double extent = w.particles.count() ? (hi - lo).norm() : 0.0;
   for (const auto& c : scene.colliders) extent = std::max(extent, c.half_extents.norm() + c.radius);
-  double speed = wave + scene.gravity.norm() * (scene.time.duration + scene.time.dt);
+  double speed = wave + scene.gravity.norm() * (scene.time.duration + dt);
   for (const auto& b : scene.bodies) speed += b.velocity.norm() + b.angular_velocity.norm() * extent;
   for (const auto& bc : scene.boundary_conditions) {
-    const double over = std::max(bc.window.ramp, scene.time.dt);
+    const double over = std::max(bc.window.ramp, dt);
     speed += bc.velocity.norm() + bc.angular_velocity.norm() * extent + bc.displacement.norm() / over +
              std::abs(bc.rotation_angle) * extent / over;
   }
   for (const auto& c : scene.colliders) speed += c.velocity.norm() + c.angular_velocity.norm() * extent;
   for (const auto& pr : scene.projectiles) speed += pr.velocity.norm() + pr.angular_velocity.norm() * pr.radius;
   return kMaxSpeedFactor * speed;
+}
+
+// "dt": "auto" (scene.hpp, Time::auto_dt): 80 % of the stable limit `stable` (the estimate of
+// stable_time_step.cpp), shortened to the frame interval divided into a whole number of steps, so that
+// every frame falls on a step. 80 % because the limit is that of the linearized model at rest:
+// compression, contact and impacts stiffen a running scene, and the CLI warns above 80 % of it. Throws
+// SceneError naming /time/dt when no limit can be computed or the step is too small for the duration.
+double automatic_time_step(const scene::Scene& scene, double stable) {
+  const std::string file = scene.source.string();
+  auto g = [](double x) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", x);
+    return std::string(buf);
+  };
+  if (!(stable > 0.0) || !std::isfinite(stable))
+    throw scene::SceneError(file, "/time/dt",
+                            "\"auto\" found no stable step for these bodies (got a stable limit of " +
+                                g(stable) + " s; expected bodies with bonds or tets; give dt in seconds)");
+  const double interval = 1.0 / scene.time.frame_rate;
+  const double steps_per_frame = std::ceil(interval / (0.8 * stable));
+  scene::Scene resolved = scene;
+  resolved.time.dt = interval / steps_per_frame;
+  try {
+    scene::check_time(resolved);
+  } catch (const scene::SceneError& e) {
+    throw scene::SceneError(file, "/time/dt", std::string("\"auto\" picked ") + g(resolved.time.dt) +
+                                                  " s (80 % of the stable limit " + g(stable) +
+                                                  " s), which the time settings refuse: " + e.message());
+  }
+  return resolved.time.dt;
 }
 
 }  // namespace
@@ -106,7 +138,7 @@ void release_contact_buffers(WorldState& w) {
 }
 
 std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Scheduler& scheduler,
-                                              std::vector<PhaseTime>* times, bool shell) {
+                                              std::vector<PhaseTime>* times, bool shell, double* stable_time_step) {
   // Phase timer: each call closes the phase that began at the previous one.
   auto last = std::chrono::steady_clock::now();
   auto phase = [&](const char* name) {
@@ -144,7 +176,6 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   }
   scheduler.execute([&] { add_bodies(scene, w); });
   phase("bodies (mesh, Morton order, particles)");
-  w.settings.max_speed = max_speed(scene, w);
   scheduler.execute([&] { allocate_step_state(w); });  // parallel page clearing, in the world's arena
   resolve_boundary_conditions(scene.boundary_conditions, w);
   phase("step state and boundary conditions");
@@ -156,6 +187,17 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   resolve_loads(scene.loads, adjacency, w);
   phase("loads");
   auto& p = w.particles;
+  // An automatic step (scene.time.auto_dt) from the stable limit of the finished model, before anything
+  // reads the step (the first half step's loads, contact and projectile stiffness, surface frames).
+  auto resolve_time_step = [&] {
+    if (scene.time.auto_dt) {
+      const double stable = estimate_stable_time_step(w);
+      w.clock.dt = automatic_time_step(scene, stable);
+      if (stable_time_step) *stable_time_step = stable;
+      phase("stable time step (dt \"auto\")");
+    }
+    w.settings.max_speed = max_speed(scene, w, w.clock.dt);
+  };
 
   if (fem) {
     // No bonds: an empty CSR so bond-walking code (output fields, fragments) sees empty families.
@@ -164,6 +206,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     scheduler.execute([&] {
       systems::setup_fem(w);
       systems::compute_model_constants(w);  // the damping rate; the rest is unused without bonds
+      resolve_time_step();
       systems::compute_fem_force(w, p.position, w.fem.corner_force, w.state.internal_force);
       systems::compute_external_force(w, 0.0, 0.0, 0.5 * w.clock.dt);  // the first half step, [0, dt/2]
       parallel_for_each(p.count(), [&](std::size_t i) {
@@ -188,6 +231,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
     systems::apply_strength_field(w);
     systems::compute_fracture_thresholds(w);
     phase("model constants");
+    resolve_time_step();
     // Initial acceleration for the first kick of velocity Verlet. In the reference configuration every
     // extension is exactly 0.0 (|y_j − y_i| and |ξ| are the same bits) and e^p starts at 0, so θ and the
     // internal force are exactly zero: the passes (0.7 s at 9e5 particles) run only if a position differs.

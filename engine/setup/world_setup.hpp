@@ -28,9 +28,11 @@ struct PhaseTime {
 // and load definitions and contact settings that make a local world's non-array parts, the same as the
 // whole world's, and no arrays; no body is meshed. What needs the meshes (the bodies' measures, the
 // instability bound, the contact reach) it takes from rank 0 (distributed/local_world.hpp,
-// take_world_frame).
+// take_world_frame). A scene whose step is "auto" gets it here (80 % of estimate_stable_time_step,
+// fitted to the frame interval); `stable_time_step`, when given, then receives that estimate.
 std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Scheduler& scheduler,
-                                              std::vector<PhaseTime>* times = nullptr, bool shell = false);
+                                              std::vector<PhaseTime>* times = nullptr, bool shell = false,
+                                              double* stable_time_step = nullptr);
 // Throws SceneError (/model/solver) when the scene asks an FEM solver for what only the peridynamic one
 // does (yield, fracture, initial cracks); build_world_state calls it first.
 void check_solver(const scene::Scene& scene);

@@ -267,6 +267,45 @@ TEST_CASE("stable_time_step_bound(): a lower bound on the Lanczos estimate, and 
   }
 }
 
+TEST_CASE("time step \"auto\": 80 % of the stable limit, a whole number of steps per frame, smaller on a finer mesh") {
+  // engine/setup/world_setup.cpp, automatic_time_step. For each solver, at two cell sizes: the step is
+  // at most 0.8 of the estimate, the largest that divides the frame interval into whole steps (one
+  // step fewer per frame would exceed 0.8), the estimate is the one a world with that step given
+  // computes (the same bits: set-up ran the same estimate), the scene the world reports holds it, and
+  // halving the cell about halves it (the limit scales with the spacing over the wave speed).
+  for (const auto solver : {scene::Solver::peridynamics, scene::Solver::fem_corotated}) {
+    double coarse = 0.0;
+    for (const double cell : {0.02, 0.01}) {
+      CAPTURE(int(solver));
+      CAPTURE(cell);
+      auto sc = test::box_scene(Vec3(0.12, 0.06, 0.04), cell, 3.3e6, 2e6);
+      sc.solver = solver;
+      sc.time.auto_dt = true;
+      sc.time.dt = 0.0;
+      sc.time.frame_rate = 60.0;
+      const World w(sc);
+      const double dt = w.dt(), stable = w.stable_time_step();
+      CHECK(w.scene().time.dt == dt);
+      CHECK(dt <= 0.8 * stable);
+      const double per_frame = 1.0 / (sc.time.frame_rate * dt);
+      CHECK(per_frame == doctest::Approx(std::round(per_frame)).epsilon(1e-12));
+      REQUIRE(std::round(per_frame) >= 2.0);
+      CHECK(1.0 / (sc.time.frame_rate * (std::round(per_frame) - 1.0)) > 0.8 * stable);
+      auto given = sc;
+      given.time.auto_dt = false;
+      given.time.dt = dt;
+      CHECK(World(given).stable_time_step() == stable);
+      MESSAGE("solver " << int(solver) << ", cell " << cell << " m: dt " << dt << " s, " << dt / stable
+                        << " of the limit " << stable << " s, " << std::round(per_frame) << " steps per frame");
+      if (coarse > 0.0) {
+        CHECK(dt > 0.35 * coarse);
+        CHECK(dt < 0.65 * coarse);
+      }
+      coarse = dt;
+    }
+  }
+}
+
 TEST_CASE("first_break_time(): the end of the first step in which a bond broke, empty before and without fracture") {
   // A box whose two halves fly apart: bonds across the middle stretch past s_c within a few steps.
   auto sc = test::box_scene(Vec3(0.06, 0.02, 0.02), 0.005, 3e6, 2e6);

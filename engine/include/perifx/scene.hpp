@@ -222,7 +222,10 @@ struct Distributed {
 };
 
 struct Time {
-  double dt = 1e-4;                    // s
+  double dt = 1e-4;                    // s; 0 while auto_dt is unresolved
+  // "dt": "auto" (the default): a World picks dt at set-up (80 % of the estimated stable limit, fitted
+  // to the frame interval; setup/world_setup.cpp) and writes it into its copy of the scene.
+  bool auto_dt = false;
   double duration = 1.0;               // s
   double frame_rate = 24.0;            // frames per second of output
 };

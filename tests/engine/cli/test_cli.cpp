@@ -122,6 +122,41 @@ TEST_CASE("cli: errors exit non-zero with a message naming the file, pointer, va
   fs::remove_all(dir);
 }
 
+TEST_CASE("cli: a scene without dt, or --dt auto, runs at the step picked at set-up; info says so; resume continues it") {
+  const fs::path dir = temp_dir("auto_dt");
+  std::string text = kScene;
+  const std::string step = "\"dt\": 1e-4, ";
+  text.erase(text.find(step), step.size());  // the step left out: "auto"
+  const fs::path scene = write(dir, "scene.json", text);
+  const auto info = run_cli("info " + scene.string());
+  REQUIRE(info.code == 0);
+  CHECK(info.output.find("(auto: ") != std::string::npos);  // "time step 0.000128 s (auto: 77% of the stable limit …"
+  const auto whole = run_cli("run " + scene.string() + " --quiet --threads 2 --out " + (dir / "whole").string());
+  REQUIRE(whole.code == 0);
+  const auto summary = nlohmann::json::parse(slurp(dir / "whole" / "summary.json"));
+  const double dt = summary["dt"].get<double>();
+  CHECK(dt > 1e-4);  // the scene's hand-picked step was well inside the limit
+  const double per_frame = 1.0 / (200.0 * dt);
+  CHECK(per_frame == doctest::Approx(std::round(per_frame)).epsilon(1e-12));
+  // The option overrides a scene's number, and a resumed run picks the same step (the checkpoint holds it).
+  const fs::path given = write(dir, "given.json", kScene);
+  REQUIRE(run_cli("run " + given.string() + " --dt auto --quiet --threads 1 --frames 2 --out " + (dir / "part").string()).code == 0);
+  REQUIRE(run_cli("run " + given.string() + " --dt auto --quiet --threads 1 --resume --out " + (dir / "part").string()).code == 0);
+  CHECK(nlohmann::json::parse(slurp(dir / "part" / "summary.json"))["dt"].get<double>() == dt);
+  int compared = 0;
+  for (const auto& entry : fs::directory_iterator(dir / "whole")) {
+    const auto name = entry.path().filename().string();
+    if (name == "summary.json" || name == "checkpoint.bin") continue;
+    CHECK_MESSAGE(slurp(entry.path()) == slurp(dir / "part" / name), name);
+    ++compared;
+  }
+  CHECK(compared >= 20);  // frames 0..4 in four formats, and the series files
+  const auto bad = run_cli("run " + given.string() + " --dt soon --quiet --out " + (dir / "bad").string());
+  CHECK(bad.code == 1);
+  CHECK(bad.output.find("--dt") != std::string::npos);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("cli: a time step above the stable limit is refused with the limit in the message") {
   const fs::path dir = temp_dir("unstable");
   std::string text = kScene;

@@ -164,7 +164,8 @@ for resumer in 3 1; do
   compare "2 ranks to frame 7, resumed by $resumer rank(s)" "$out"
 done
 # The FEM reference solver (mpi_fem.json: corotated tets, an anchor, a velocity condition, gravity, a
-# traction, a ball and a rising box collider): 2 and 3 ranks of 1 thread and 2 ranks of 2 threads.
+# traction, a ball and a rising box collider; its time step "auto", picked at set-up): 2 and 3 ranks of
+# 1 thread and 2 ranks of 2 threads.
 fem_scene=$here/mpi_fem.json
 "$perifx" run "$fem_scene" --threads 1 --quiet --out "$work/fem_one_process"
 python3 - "$work/fem_one_process" <<'EOF' || fail=1
@@ -173,8 +174,11 @@ run = pathlib.Path(sys.argv[1])
 s = json.loads((run / "summary.json").read_text())
 rows = (run / "projectiles.csv").read_text().splitlines()[1:]
 ball = max(sum(float(v) ** 2 for v in row.split(",")[11:14]) ** 0.5 for row in rows)
-print(f"mpi_identity: FEM one process: {s['particles']} vertices, {s['frames']} frames, largest ball force {ball:.3g} N")
+steps = 1 / (500 * s['dt'])  # the automatic step divides the frame interval (500 frames/s)
+print(f"mpi_identity: FEM one process: {s['particles']} vertices, {s['frames']} frames, dt {s['dt']:.4g} s "
+      f"(auto, {steps:.0f} steps per frame), largest ball force {ball:.3g} N")
 if not ball > 0: sys.exit("mpi_identity: the ball must strike the FEM beam; the scene no longer tests that")
+if abs(steps - round(steps)) > 1e-9 * steps: sys.exit("mpi_identity: the automatic step does not divide the frame interval")
 EOF
 for spec in 2x1 3x1 2x2; do
   ranks=${spec%x*} threads=${spec#*x}

@@ -383,11 +383,33 @@ TEST_CASE("scene: unknown and misplaced keys") {
   CHECK_HAS(error_of(twice), "cases.json: /materials/steel: duplicate key 'steel'");
 }
 
+TEST_CASE("scene: the time step is \"auto\" when not given, and only a number or \"auto\" otherwise") {
+  Json j = minimal();
+  CHECK(!load_scene_text(j.dump(), "cases.json").time.auto_dt);
+  for (const Json& dt : {Json("auto"), Json("AUTO"), Json()}) {  // given (any letter case) or left out
+    j = minimal();
+    if (dt.is_null()) j["time"].erase("dt");
+    else j["time"]["dt"] = dt;
+    const Scene s = load_scene_text(j.dump(), "cases.json");
+    CHECK(s.time.auto_dt);
+    CHECK(s.time.dt == 0.0);  // a World picks it (test_world.cpp)
+  }
+  j = minimal();
+  j.erase("time");  // every time key has a default now
+  const Scene s = load_scene_text(j.dump(), "cases.json");
+  CHECK(s.time.auto_dt);
+  CHECK(s.time.duration == 1.0);
+  CHECK(s.time.frame_rate == 24.0);
+  j = minimal();
+  j["time"]["dt"] = "fast";
+  CHECK(error_in(j) == "cases.json: /time/dt: wrong type (got \"fast\"; expected a number > 0 or \"auto\")");
+  j = minimal();  // an automatic step still needs frames that fit in the duration
+  j["time"] = Json::parse(R"({"dt": "auto", "duration": 0.01, "frame_rate": 24})");
+  CHECK_HAS(error_in(j), "cases.json: /time/frame_rate: no frame in the duration");
+}
+
 TEST_CASE("scene: missing keys") {
   Json j = minimal();
-  j["time"].erase("dt");
-  CHECK(error_in(j) == "cases.json: /time/dt: missing required key 'dt' (expected a number > 0)");
-  j = minimal();
   j["bodies"][0]["geometry"].erase("size");
   CHECK(error_in(j) == "cases.json: /bodies/0/geometry/size: missing required key 'size' for geometry type 'box' "
                        "(expected an array of 3 numbers, each > 0)");
