@@ -291,10 +291,14 @@ int cmd_check(const Args& a) {
 bool report_time_step(const perifx::World& world, std::ostream& out) {
   const double dt = world.dt();
   char buf[256];
-  if (world.scene().time.auto_dt) {  // picked at set-up from the estimate (setup/world_setup.cpp)
-    const double stable = world.stable_time_step();
-    std::snprintf(buf, sizeof buf, "time step        %.3g s (auto: %.0f%% of the stable limit %.3g s, %.0f steps per frame)\n",
-                  dt, 100.0 * dt / stable, stable, 1.0 / (world.scene().time.frame_rate * dt));
+  if (world.scene().time.auto_dt) {  // picked at set-up (setup/world_setup.cpp, automatic_time_step)
+    const double stable = world.stable_time_step(), interval = 1.0 / world.scene().time.frame_rate;
+    const double steps = std::round(interval / dt);
+    // More steps per frame than 80 % of the limit needs: the prescribed motion set the step.
+    const bool by_motion = steps > std::ceil(interval / (0.8 * stable));
+    std::snprintf(buf, sizeof buf, "time step        %.3g s (auto: %.0f%% of the stable limit %.3g s%s, %.0f steps per frame)\n",
+                  dt, 100.0 * dt / stable, stable,
+                  by_motion ? "; set by the fastest prescribed motion, a quarter of the finest cell per step" : "", steps);
     out << buf;
     return true;
   }

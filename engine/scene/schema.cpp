@@ -372,9 +372,11 @@ Key build_spec() {
       object("time", "time", "Time stepping.", {
           number("dt", "Time step, s; at most `duration`, at least duration/1e9 (at most 1e9 steps), and at "
                        "most the stable explicit limit (`perifx info`). \"auto\": 80 % of the stable limit "
-                       "estimated for this scene's bodies at set-up, shortened so that a whole number of steps fills "
-                       "each frame interval; the same scene at a finer resolution then takes a smaller step by itself "
-                       "(systems/README.md §7).").gt(0).or_auto().def("auto"),
+                       "estimated for this scene's bodies at set-up, or less where the scene's prescribed motion "
+                       "(initial velocities, projectiles, colliders, boundary conditions; summed) would cover more "
+                       "than a quarter of the finest body's mean edge length per step, shortened so that a whole "
+                       "number of steps fills each frame interval; the same scene at a finer resolution then takes "
+                       "a smaller step by itself (systems/README.md §7).").gt(0).or_auto().def("auto"),
           number("duration", "Simulated time, s.").gt(0).def(1),
           number("frame_rate", "Output frames per simulated second; at most 1/dt (an error, not clamped) and "
                                "at most 1e6 frames in `duration`.").gt(0).def(24),

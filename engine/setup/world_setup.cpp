@@ -52,6 +52,32 @@ void resolve_settings(const scene::Scene& scene, StepSettings& s) {
 // leaves room above it. A blow-up grows exponentially, so it crosses the bound within a few steps.
 constexpr double kMaxSpeedFactor = 10.0;
 
+// The diagonal of the bodies' reference box, or of a collider if one is larger: the arm of every spin.
+double scene_extent(const scene::Scene& scene, const WorldState& w) {
+  Vec3 lo = Vec3::Constant(kInfinity), hi = Vec3::Constant(-kInfinity);
+  for (const Vec3& x : w.particles.reference_position) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+  double extent = w.particles.count() ? (hi - lo).norm() : 0.0;
+  for (const auto& c : scene.colliders) extent = std::max(extent, c.half_extents.norm() + c.radius);
+  return extent;
+}
+
+// Every speed the scene prescribes, summed (so a bound on any closing speed of two of them): the
+// bodies' initial motion, boundary conditions, colliders and projectiles, spins at the scene's extent.
+// A condition's displacement or rotation counts over its ramp, or over `jump` without one (max_speed:
+// one step; the automatic step: none, as a jump happens in one step whatever the step).
+double prescribed_speed(const scene::Scene& scene, double extent, double jump) {
+  double speed = 0.0;
+  for (const auto& b : scene.bodies) speed += b.velocity.norm() + b.angular_velocity.norm() * extent;
+  for (const auto& bc : scene.boundary_conditions) {
+    speed += bc.velocity.norm() + bc.angular_velocity.norm() * extent;
+    const double over = std::max(bc.window.ramp, jump);
+    if (over > 0.0) speed += bc.displacement.norm() / over + std::abs(bc.rotation_angle) * extent / over;
+  }
+  for (const auto& c : scene.colliders) speed += c.velocity.norm() + c.angular_velocity.norm() * extent;
+  for (const auto& pr : scene.projectiles) speed += pr.velocity.norm() + pr.angular_velocity.norm() * pr.radius;
+  return speed;
+}
+
 double max_speed(const scene::Scene& scene, const WorldState& w, double dt) {
   double wave = 0.0;
   for (const auto& m : scene.materials) {
@@ -59,28 +85,26 @@ double max_speed(const scene::Scene& scene, const WorldState& w, double dt) {
     const double g = std::max(1.0, m.anisotropy.cwiseAbs().maxCoeff());
     wave = std::max(wave, g * std::sqrt((m.bulk_modulus + 4.0 / 3.0 * m.shear_modulus) / m.density));
   }
-  Vec3 lo = Vec3::Constant(kInfinity), hi = Vec3::Constant(-kInfinity);
-  for (const Vec3& x : w.particles.reference_position) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
-  double extent = w.particles.count() ? (hi - lo).norm() : 0.0;
-  for (const auto& c : scene.colliders) extent = std::max(extent, c.half_extents.norm() + c.radius);
-  double speed = wave + scene.gravity.norm() * (scene.time.duration + dt);
-  for (const auto& b : scene.bodies) speed += b.velocity.norm() + b.angular_velocity.norm() * extent;
-  for (const auto& bc : scene.boundary_conditions) {
-    const double over = std::max(bc.window.ramp, dt);
-    speed += bc.velocity.norm() + bc.angular_velocity.norm() * extent + bc.displacement.norm() / over +
-             std::abs(bc.rotation_angle) * extent / over;
-  }
-  for (const auto& c : scene.colliders) speed += c.velocity.norm() + c.angular_velocity.norm() * extent;
-  for (const auto& pr : scene.projectiles) speed += pr.velocity.norm() + pr.angular_velocity.norm() * pr.radius;
+  const double speed = wave + scene.gravity.norm() * (scene.time.duration + dt) +
+                       prescribed_speed(scene, scene_extent(scene, w), dt);
   return kMaxSpeedFactor * speed;
 }
 
-// "dt": "auto" (scene.hpp, Time::auto_dt): 80 % of the stable limit `stable` (the estimate of
-// stable_time_step.cpp), shortened to the frame interval divided into a whole number of steps, so that
-// every frame falls on a step. 80 % because the limit is that of the linearized model at rest:
-// compression, contact and impacts stiffen a running scene, and the CLI warns above 80 % of it. Throws
-// SceneError naming /time/dt when no limit can be computed or the step is too small for the duration.
-double automatic_time_step(const scene::Scene& scene, double stable) {
+// "dt": "auto" (scene.hpp, Time::auto_dt; systems/README.md §7): the smaller of
+//   - 80 % of the stable limit `stable` (the estimate of stable_time_step.cpp): the limit is that of the
+//     linearized model at rest, and compression, contact and impacts stiffen a running scene (the CLI
+//     warns above 80 % of it);
+//   - the step in which the fastest prescribed motion (prescribed_speed) covers kMotionPerStep of the
+//     finest body's mean edge length λ: a 60 m/s bullet at 80 % of a jelly's limit crossed 1.2 cm
+//     cells in one step and passed through without breaking a bond, where the scene's own 5e-5 s
+//     (0.3 of a cell per step) breaks it (assets/scenes/jello_bullet.json);
+// then shortened to the frame interval divided into a whole number of steps, so that every frame falls
+// on a step. Throws SceneError naming /time/dt when no limit can be computed or the step is too small
+// for the duration.
+constexpr double kStableFraction = 0.8;
+constexpr double kMotionPerStep = 0.25;
+
+double automatic_time_step(const scene::Scene& scene, const WorldState& w, double stable) {
   const std::string file = scene.source.string();
   auto g = [](double x) {
     char buf[32];
@@ -92,15 +116,19 @@ double automatic_time_step(const scene::Scene& scene, double stable) {
                             "\"auto\" found no stable step for these bodies (got a stable limit of " +
                                 g(stable) + " s; expected bodies with bonds or tets; give dt in seconds)");
   const double interval = 1.0 / scene.time.frame_rate;
-  const double steps_per_frame = std::ceil(interval / (0.8 * stable));
+  double finest = kInfinity;  // λ of the finest body
+  for (const auto& b : w.bodies) finest = std::min(finest, b.mean_edge_length);
+  const double speed = prescribed_speed(scene, scene_extent(scene, w), 0.0);
+  const double by_motion = speed > 0.0 && finest < kInfinity ? kMotionPerStep * finest / speed : kInfinity;
+  const double steps_per_frame = std::ceil(interval / std::min(kStableFraction * stable, by_motion));
   scene::Scene resolved = scene;
   resolved.time.dt = interval / steps_per_frame;
   try {
     scene::check_time(resolved);
   } catch (const scene::SceneError& e) {
     throw scene::SceneError(file, "/time/dt", std::string("\"auto\" picked ") + g(resolved.time.dt) +
-                                                  " s (80 % of the stable limit " + g(stable) +
-                                                  " s), which the time settings refuse: " + e.message());
+                                                  " s (the stable limit is " + g(stable) + " s, the fastest prescribed motion " +
+                                                  g(speed) + " m/s), which the time settings refuse: " + e.message());
   }
   return resolved.time.dt;
 }
@@ -192,7 +220,7 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   auto resolve_time_step = [&] {
     if (scene.time.auto_dt) {
       const double stable = estimate_stable_time_step(w);
-      w.clock.dt = automatic_time_step(scene, stable);
+      w.clock.dt = automatic_time_step(scene, w, stable);
       if (stable_time_step) *stable_time_step = stable;
       phase("stable time step (dt \"auto\")");
     }

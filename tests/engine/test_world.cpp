@@ -306,6 +306,30 @@ TEST_CASE("time step \"auto\": 80 % of the stable limit, a whole number of steps
   }
 }
 
+TEST_CASE("time step \"auto\": a fast projectile sets it, a quarter of the finest cell per step") {
+  // 80 % of a jelly's limit lets a 60 m/s bullet cross a cell per step (assets/scenes/jello_bullet.json
+  // then broke no bond); the automatic step keeps every prescribed motion, summed, to a quarter of the
+  // finest body's mean edge length λ per step: here the ball (50 m/s) plus the box's own 10 m/s.
+  auto sc = test::box_scene(Vec3(0.12, 0.06, 0.04), 0.01, 3.3e6, 2e6);
+  sc.time.auto_dt = true;
+  sc.time.dt = 0.0;
+  sc.time.frame_rate = 100.0;
+  sc.bodies[0].velocity = Vec3(0.0, 10.0, 0.0);
+  scene::Projectile ball;
+  ball.center = Vec3(0.0, 0.0, 0.1);
+  ball.radius = 0.02;
+  ball.velocity = Vec3(0.0, 0.0, -50.0);
+  sc.projectiles.push_back(ball);
+  const World w(sc);
+  const double lambda = w.bodies()[0].mean_edge_length, by_motion = 0.25 * lambda / 60.0;
+  const double interval = 1.0 / sc.time.frame_rate, steps = std::round(interval / w.dt());
+  CHECK(w.dt() <= by_motion);
+  CHECK(interval / (steps - 1.0) > by_motion);  // the largest whole-steps-per-frame step under it
+  CHECK(w.dt() < 0.5 * w.stable_time_step());  // the motion decided, not the limit
+  MESSAGE("lambda " << lambda << " m: dt " << w.dt() << " s, " << steps << " steps per frame, "
+                    << w.dt() / w.stable_time_step() << " of the stable limit");
+}
+
 TEST_CASE("first_break_time(): the end of the first step in which a bond broke, empty before and without fracture") {
   // A box whose two halves fly apart: bonds across the middle stretch past s_c within a few steps.
   auto sc = test::box_scene(Vec3(0.06, 0.02, 0.02), 0.005, 3e6, 2e6);
