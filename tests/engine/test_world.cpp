@@ -328,6 +328,23 @@ TEST_CASE("time step \"auto\": a fast projectile sets it, a quarter of the fines
   CHECK(w.dt() < 0.5 * w.stable_time_step());  // the motion decided, not the limit
   MESSAGE("lambda " << lambda << " m: dt " << w.dt() << " s, " << steps << " steps per frame, "
                     << w.dt() / w.stable_time_step() << " of the stable limit");
+
+  // A step the time settings refuse (here more than 1e9 steps: a stiff 1 mm lattice for 1000 s) is a
+  // scene error naming /time/dt, with the step picked and why.
+  auto stiff = test::box_scene(Vec3(0.01, 0.01, 0.01), 0.002, 1.6e11, 8e10, 7800.0);
+  stiff.time.auto_dt = true;
+  stiff.time.dt = 0.0;
+  stiff.time.duration = 1000.0;
+  stiff.time.frame_rate = 1.0;
+  try {
+    World refused(stiff);
+    FAIL("expected a SceneError");
+  } catch (const scene::SceneError& e) {
+    CHECK(e.pointer() == "/time/dt");
+    CHECK(e.message().find("\"auto\" picked ") == 0);
+    CHECK(e.message().find("expected at most 1e9 steps") != std::string::npos);
+    MESSAGE(std::string(e.what()));
+  }
 }
 
 TEST_CASE("first_break_time(): the end of the first step in which a bond broke, empty before and without fracture") {
