@@ -374,7 +374,8 @@ Key build_spec() {
                        "most the stable explicit limit (`perifx info`). \"auto\": 80 % of the stable limit "
                        "estimated for this scene's bodies at set-up, or less where the scene's prescribed motion "
                        "(initial velocities, projectiles, colliders, boundary conditions; summed) would cover more "
-                       "than a quarter of the finest body's mean edge length per step, shortened so that a whole "
+                       "than a quarter of the finest body's mean edge length (or of a smaller projectile's radius) "
+                       "per step, shortened so that a whole "
                        "number of steps fills each frame interval; the same scene at a finer resolution then takes "
                        "a smaller step by itself (systems/README.md §7).").gt(0).or_auto().def("auto"),
           number("duration", "Simulated time, s.").gt(0).def(1),

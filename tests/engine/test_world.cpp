@@ -306,7 +306,7 @@ TEST_CASE("time step \"auto\": 80 % of the stable limit, a whole number of steps
   }
 }
 
-TEST_CASE("time step \"auto\": a fast projectile sets it, a quarter of the finest cell per step") {
+TEST_CASE("time step \"auto\": a fast projectile sets it, a quarter of the finest cell (or its radius) per step") {
   // 80 % of a jelly's limit lets a 60 m/s bullet cross a cell per step (assets/scenes/jello_bullet.json
   // then broke no bond); the automatic step keeps every prescribed motion, summed, to a quarter of the
   // finest body's mean edge length λ per step: here the ball (50 m/s) plus the box's own 10 m/s.
@@ -328,6 +328,13 @@ TEST_CASE("time step \"auto\": a fast projectile sets it, a quarter of the fines
   CHECK(w.dt() < 0.5 * w.stable_time_step());  // the motion decided, not the limit
   MESSAGE("lambda " << lambda << " m: dt " << w.dt() << " s, " << steps << " steps per frame, "
                     << w.dt() / w.stable_time_step() << " of the stable limit");
+  // A ball smaller than a cell: its radius is the length (so its blow does not soften on a coarse mesh).
+  auto small = sc;
+  small.projectiles[0].radius = 0.004;
+  const World ws(small);
+  const double by_radius = 0.25 * 0.004 / 60.0, small_steps = std::round(interval / ws.dt());
+  CHECK(ws.dt() <= by_radius);
+  CHECK(interval / (small_steps - 1.0) > by_radius);
 
   // A step the time settings refuse (here more than 1e9 steps: a stiff 1 mm lattice for 1000 s) is a
   // scene error naming /time/dt, with the step picked and why.
