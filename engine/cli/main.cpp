@@ -290,7 +290,7 @@ int cmd_check(const Args& a) {
 // stable, and not within the 20 % of the limit that the estimate's path warns about.
 bool report_time_step(const perifx::World& world, std::ostream& out) {
   const double dt = world.dt();
-  char buf[256];
+  char buf[384];  // the longest line, an automatic step set by motion, is about 210 characters
   if (world.scene().time.auto_dt) {  // picked at set-up (setup/world_setup.cpp, automatic_time_step)
     const double stable = world.stable_time_step(), interval = 1.0 / world.scene().time.frame_rate;
     const double steps = std::round(interval / dt);
@@ -298,7 +298,7 @@ bool report_time_step(const perifx::World& world, std::ostream& out) {
     const bool by_motion = steps > std::ceil(interval / (0.8 * stable));
     std::snprintf(buf, sizeof buf, "time step        %.3g s (auto: %.0f%% of the stable limit %.3g s%s, %.0f steps per frame)\n",
                   dt, 100.0 * dt / stable, stable,
-                  by_motion ? "; set by the fastest prescribed motion, a quarter of the finest cell per step" : "", steps);
+                  by_motion ? "; set by the fastest prescribed motion: a quarter of the finest cell, or of a smaller projectile's radius, per step" : "", steps);
     out << buf;
     return true;
   }
