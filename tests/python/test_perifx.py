@@ -37,6 +37,15 @@ def test_world_from_dict_steps_and_counts():
     assert w.fragment_count == 1
 
 
+def test_a_scene_without_a_step_gets_one_at_set_up():
+    # "dt": "auto" (the default): 80 % of the stable limit at most, a whole number of steps per frame.
+    w = perifx.World(small_scene(time={"duration": 0.01, "frame_rate": 200}), threads=1)
+    steps = 1 / (200 * w.dt)
+    assert abs(steps - round(steps)) < 1e-9 * steps
+    assert w.dt <= 0.8 * w.stable_time_step()
+    assert w.dt > 1e-4  # the soft cube's hand-picked step above was well inside its limit
+
+
 def test_fields_are_read_only_views_without_copies():
     w = perifx.World(str(CANTILEVER))
     names = w.field_names()
