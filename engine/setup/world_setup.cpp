@@ -80,7 +80,8 @@ double prescribed_speed(const scene::Scene& scene, double extent, double jump) {
   return speed;
 }
 
-double max_speed(const scene::Scene& scene, const WorldState& w, double dt) {
+// `extent`: scene_extent.
+double max_speed(const scene::Scene& scene, double extent, double dt) {
   double wave = 0.0;
   for (const auto& m : scene.materials) {
     // Anisotropy scales the stiffness by up to the largest |G| entry squared.
@@ -88,7 +89,7 @@ double max_speed(const scene::Scene& scene, const WorldState& w, double dt) {
     wave = std::max(wave, g * std::sqrt((m.bulk_modulus + 4.0 / 3.0 * m.shear_modulus) / m.density));
   }
   const double speed = wave + scene.gravity.norm() * (scene.time.duration + dt) +
-                       prescribed_speed(scene, scene_extent(scene, w), dt);
+                       prescribed_speed(scene, extent, dt);
   return kMaxSpeedFactor * speed;
 }
 
@@ -111,7 +112,7 @@ double max_speed(const scene::Scene& scene, const WorldState& w, double dt) {
 constexpr double kStableFraction = 0.8;
 constexpr double kMotionPerStep = 0.25;
 
-double automatic_time_step(const scene::Scene& scene, const WorldState& w, double stable) {
+double automatic_time_step(const scene::Scene& scene, const WorldState& w, double extent, double stable) {
   const std::string file = scene.source.string();
   auto g = [](double x) {
     char buf[32];
@@ -126,7 +127,7 @@ double automatic_time_step(const scene::Scene& scene, const WorldState& w, doubl
   double finest = kInfinity;  // λ of the finest body, or the smallest projectile's radius
   for (const auto& b : w.bodies) finest = std::min(finest, b.mean_edge_length);
   for (const auto& pr : scene.projectiles) finest = std::min(finest, pr.radius);
-  const double speed = prescribed_speed(scene, scene_extent(scene, w), 0.0);
+  const double speed = prescribed_speed(scene, extent, 0.0);
   const double by_motion = speed > 0.0 && finest < kInfinity ? kMotionPerStep * finest / speed : kInfinity;
   const double steps_per_frame = std::ceil(interval / std::min(kStableFraction * stable, by_motion));
   scene::Scene resolved = scene;
@@ -226,17 +227,18 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
   // An automatic step (scene.time.auto_dt) from the stable limit of the finished model, before anything
   // reads the step (the first half step's loads, contact and projectile stiffness, surface frames).
   auto resolve_time_step = [&] {
+    const double extent = scene_extent(scene, w);  // one pass over the particles, for both rules below
     if (scene.time.auto_dt) {
       double stable = std::numeric_limits<double>::quiet_NaN();  // no estimate: automatic_time_step says so
       try {
         stable = estimate_stable_time_step(w);
       } catch (const std::runtime_error&) {
       }
-      w.clock.dt = automatic_time_step(scene, w, stable);
+      w.clock.dt = automatic_time_step(scene, w, extent, stable);
       if (stable_time_step) *stable_time_step = stable;
       phase("stable time step (dt \"auto\")");
     }
-    w.settings.max_speed = max_speed(scene, w, w.clock.dt);
+    w.settings.max_speed = max_speed(scene, extent, w.clock.dt);
   };
 
   if (fem) {
