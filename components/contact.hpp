@@ -83,7 +83,9 @@ struct ContactPairs {
 struct ContactState {
   bool enabled = false;          // particle–particle contact runs this world (scene "contact")
   double distance_factor = 0.9;  // d_c = factor·(s_i + s_j)/2,  s = ∛V
-  double stiffness_factor = 0.05;// k = factor·min(m_i, m_j)/dt²
+  double stiffness_factor = 0.05;// k = factor·min(m_i, m_j)/max(τ, dt)²
+  double time_scale = 0.0;       // τ, s: the contact time scale (settings.contact.time_scale as resolved
+                                 // at set-up); 0: the step's
   double damping_ratio = 0.1;    // normal damping, fraction of critical for the pair spring
   double friction = 0.0;         // Coulomb coefficient
   double largest_distance = 0.0; // the largest d_c of any pair, m

@@ -198,6 +198,12 @@ std::size_t World::fragment_count() const {
   return impl_->state->derived.fragment_count;
 }
 
+double World::contact_time_scale() const {
+  const WorldState& w = *impl_->state;
+  const bool touches = w.contact.enabled || !w.projectiles.bodies.empty();
+  return touches ? w.settings.contact.time_scale : 0.0;
+}
+
 double World::stable_time_step() const {
   if (impl_->stable_dt == 0.0) {
     // A world whose stiffness matrix cannot be analysed (overflowing constants) has no stable step:

@@ -10,11 +10,15 @@
 //   friction f_t = min(μ·f_n, ¼·m_ij·|v_t|/dt) along v_t = (v_j − v_i) − v_n n (Coulomb, capped so it
 //            cannot reverse the relative sliding within one step)
 //   force on i: −f_n n + f_t v_t/|v_t|      (the law: contact_law.hpp, shared with projectiles.cpp).
-// Stiffness: k = stiffness_factor·min(m_i, m_j)/dt². One contact spring alone then has
-// ω²dt² = k/m_ij·dt² ≤ 2·stiffness_factor, so with the default 0.05 and the handful of contacts a
-// surface particle has, contact adds only a small fraction to the (ω·dt)² ≤ 4 budget of the explicit
-// step, whatever the material: it never forces a smaller time step. The price is that the contact
-// is softer for larger dt (penetration under an impact at speed v is ≈ v·dt/√stiffness_factor).
+// Stiffness: k = stiffness_factor·min(m_i, m_j)/τ_k², τ_k = max(τ, dt), τ the scene's contact time
+// scale (ContactState::time_scale; engine/setup/world_setup.cpp: the automatic step before it is fitted
+// to the frames, whatever step the scene gives). One contact spring alone then has
+// ω²dt² = k/m_ij·dt² ≤ 2·stiffness_factor·(dt/τ_k)² ≤ 2·stiffness_factor, so with the default 0.05 and
+// the handful of contacts a surface particle has, contact adds only a small fraction to the (ω·dt)² ≤ 4
+// budget of the explicit step, whatever the material: it never forces a smaller time step. Since τ
+// does not depend on the step, neither does the contact while dt ≤ τ (penetration under an impact at
+// speed v is ≈ v·τ/√stiffness_factor); until 2026-12-07 τ_k was dt itself, and the jelly of
+// jello_bullet.json lost 29,644 bonds to its bullet at dt = 2.5e-5 s and 2,432 at 5.5e-5 s.
 //
 // Neighbour search: a Verlet list with a skin (components/contact.hpp, ContactPairs). The list holds,
 // per particle, the unbonded particles within reach = largest d_c + skin. Positions are measured from
@@ -744,13 +748,19 @@ void allocate_pairs(WorldState& w) {
 
 }  // namespace
 
+bool contact_runs(const WorldState& w) {
+  const auto mode = w.settings.contact.mode;
+  return mode == scene::Contact::Mode::on ||
+         (mode == scene::Contact::Mode::automatic && (w.bodies.size() >= 2 || w.any_fracture));
+}
+
 void resolve_contact(WorldState& w, double largest_distance) {
   const auto& sc = w.settings.contact;
   auto& c = w.contact;
-  c.enabled = sc.mode == scene::Contact::Mode::on ||
-              (sc.mode == scene::Contact::Mode::automatic && (w.bodies.size() >= 2 || w.any_fracture));
+  c.enabled = contact_runs(w);
   c.distance_factor = sc.distance_factor;
   c.stiffness_factor = sc.stiffness_factor;
+  c.time_scale = sc.time_scale;  // resolved by set-up (0 only in worlds built without it: the step's)
   c.damping_ratio = sc.damping_ratio;
   c.friction = sc.friction;
   size_particles(w);
@@ -829,7 +839,7 @@ SystemDecl contact_system(WorldState& w) {
             auto& c = w.contact;
             const auto& pr = c.pairs;
             const auto& p = w.particles;
-            const double inv_dt2 = 1.0 / (w.clock.dt * w.clock.dt);
+            const double per_mass = contact_stiffness_per_mass(c.time_scale, w.clock.dt);  // 1/max(τ, dt)²
             const double inv_dt = 1.0 / w.clock.dt;
             parallel_for_each(p.count(), [&](std::size_t ii) {
               const auto i = static_cast<std::uint32_t>(ii);
@@ -860,7 +870,7 @@ SystemDecl contact_system(WorldState& w) {
                 const Vec3 nrm = r / d;
                 const double mi = p.mass[i], mj = p.mass[j];
                 const double m_pair = (mi * mj) / (mi + mj);
-                const double k = c.stiffness_factor * std::min(mi, mj) * inv_dt2;
+                const double k = c.stiffness_factor * std::min(mi, mj) * per_mass;
                 const ContactForce cf = contact_force(dc - d, nrm, Vec3(p.velocity[j] - vi), k, m_pair,
                                                       c.damping_ratio, c.friction, inv_dt);
                 f -= cf.normal * nrm;

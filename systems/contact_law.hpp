@@ -13,6 +13,10 @@
 // The caller applies the result along its own n and v_t (see ContactForce), which keeps each call
 // site's exact sequence of IEEE operations (the build uses -ffp-contract=off), so the shared law
 // gives the same bits the separate copies gave.
+// The stiffness is k = stiffness_factor·m/τ_k², τ_k = max(τ, dt) (contact_stiffness_per_mass below): τ
+// the scene's contact time scale, set once at set-up (engine/setup/world_setup.cpp,
+// contact_time_scale), so the contact does not stiffen or soften when only the step changes;
+// the step takes over only where it is longer than τ, which keeps one spring's (ω dt)² ≤ 2·factor.
 // Inline: it runs inside the contact loops.
 #pragma once
 #include <algorithm>
@@ -28,6 +32,13 @@ struct ContactForce {
                                       // from the force on the body whose velocity v is)
   bool sliding = false;               // friction is non-zero-length (μ > 0 and |v_t| > 0)
 };
+
+// k/m = 1/max(τ, dt)², 1/s²: the spring per kg of the lighter (or the particle's) mass, before the factor.
+// τ = 0 (no time scale: a world built without one) gives the step's 1/dt².
+inline double contact_stiffness_per_mass(double time_scale, double dt) {
+  const double tau = std::max(time_scale, dt);
+  return 1.0 / (tau * tau);
+}
 
 inline ContactForce contact_force(double overlap, const Vec3& normal, const Vec3& relative_velocity,
                                   double stiffness, double reduced_mass, double damping_ratio, double friction,

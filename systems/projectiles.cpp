@@ -19,7 +19,7 @@
 // any resolution. A rotated piece's disc is only translated, not turned: off by at most the tet's
 // size, the error the sphere of reach has anyway. With the relative velocity of the particle against
 // the sphere surface (v_s = v_c + ω × R n):
-//   f_n = max(0, k g − c_d v_n),  k = stiffness_factor·m_i/dt²,  c_d = 2ζ√(k m_ip), m_ip = m_i M/(m_i + M)
+//   f_n = max(0, k g − c_d v_n),  k = stiffness_factor·m_i/max(τ, dt)²,  c_d = 2ζ√(k m_ip), m_ip = m_i M/(m_i + M)
 //   friction f_t = min(μ f_n, ¼ m_ip |v_t|/dt) against the sliding,
 // from the scene's contact settings (contact.cpp explains the stiffness choice; the law is
 // contact_law.hpp, shared with particle–particle contact). The particle gets
@@ -95,7 +95,7 @@ SystemDecl projectile_contact_system(WorldState& w, const std::function<void(std
             const auto& p = w.particles;
             const std::size_t n = p.count(), np = set.bodies.size();
             const double dt = w.clock.dt, half = 0.5 * dt;
-            const double inv_dt = 1.0 / dt, inv_dt2 = inv_dt * inv_dt;
+            const double inv_dt = 1.0 / dt, per_mass = contact_stiffness_per_mass(c.time_scale, dt);
             // Particle–particle contact wrote contact_force this step when it is on; otherwise it is ours.
             const bool add = c.enabled;
             const SurfacePatches& sf = w.surface;
@@ -180,7 +180,7 @@ SystemDecl projectile_contact_system(WorldState& w, const std::function<void(std
                   if (!(penetration > 0.0)) continue;
                   const Vec3 arm = pr.radius * nrm;
                   const double m_pair = mi * pr.mass / (mi + pr.mass);
-                  const double kk = c.stiffness_factor * mi * inv_dt2;
+                  const double kk = c.stiffness_factor * mi * per_mass;
                   const Vec3 vrel = p.velocity[i] - (pr.velocity + pr.angular_velocity.cross(arm));
                   const ContactForce cf =
                       contact_force(penetration, nrm, vrel, kk, m_pair, c.damping_ratio, pr.friction, inv_dt);

@@ -56,6 +56,9 @@ void setup_contact(WorldState& world, double largest_distance = 0.0);
 // Its settings, particle sizes and reach only, without the pair list's buffers (a distributed run's
 // shell world, engine/setup/world_setup.hpp).
 void resolve_contact(WorldState& world, double largest_distance = 0.0);
+// Whether particle–particle contact runs in this world (the scene's contact/enabled, or automatic: at
+// least two bodies or a breakable material); resolve_contact sets ContactState::enabled from it.
+bool contact_runs(const WorldState& world);
 void setup_projectiles(WorldState& world);
 // A distributed run's contact-ghost refresh replaced the particles from `kept` on (engine/distributed/
 // local_world.cpp): keeps the pair list's pairs among the first `kept` particles, drops those with the

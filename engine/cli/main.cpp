@@ -285,10 +285,36 @@ int cmd_check(const Args& a) {
   return kOk;
 }
 
+bool report_step_limit(const perifx::World& world, std::ostream& out);
+
+// The contact time scale, when anything touches; a warning when the step is longer (the contact then
+// depends on the step: systems/contact_law.hpp).
+void report_contact_time_scale(const perifx::World& world, std::ostream& out) {
+  const double tau = world.contact_time_scale(), dt = world.dt();
+  if (!(tau > 0.0)) return;
+  char buf[320];
+  std::snprintf(buf, sizeof buf, "contact          time scale %.3g s (%s; springs stiffness_factor*m/%s^2)\n", tau,
+                world.scene().contact.time_scale > 0.0 ? "given" : "auto", dt > tau ? "dt" : "tau");
+  out << buf;
+  if (dt > tau) {
+    std::snprintf(buf, sizeof buf,
+                  "warning: time/dt %.3g s is longer than the contact time scale %.3g s: contact and impacts "
+                  "then depend on the step (give a step of at most %.3g s, or \"auto\")\n", dt, tau, tau);
+    out << buf;
+  }
+}
+
+// The stable-step verdict, then the contact time scale; false when dt is above the limit.
+bool report_time_step(const perifx::World& world, std::ostream& out) {
+  if (!report_step_limit(world, out)) return false;
+  report_contact_time_scale(world, out);
+  return true;
+}
+
 // Prints the stable-step verdict; returns false when dt is above the limit. A time step at or below
 // 80 % of the cheap lower bound (World::stable_time_step_bound) needs no eigenvalue estimate: it is
 // stable, and not within the 20 % of the limit that the estimate's path warns about.
-bool report_time_step(const perifx::World& world, std::ostream& out) {
+bool report_step_limit(const perifx::World& world, std::ostream& out) {
   const double dt = world.dt();
   char buf[384];  // the longest line, an automatic step set by motion, is about 210 characters
   if (world.scene().time.auto_dt) {  // picked at set-up (setup/world_setup.cpp, automatic_time_step)

@@ -403,6 +403,7 @@ std::vector<char> pack_world_frame(const WorldState& whole) {
   put_piece(put, whole.clock);
   put_piece(put, whole.settings.max_speed);
   put_piece(put, whole.contact.largest_distance);
+  put_piece(put, whole.settings.contact.time_scale);
   put_piece(put, whole.contact.pairs.skin);
   put_piece(put, std::uint64_t{whole.bodies.size()});
   for (const BodyInfo& b : whole.bodies) {
@@ -422,6 +423,7 @@ void take_world_frame(WorldState& shell, const std::vector<char>& message) {
   shell.clock = take_piece<Clock>(take);
   shell.settings.max_speed = take_piece<double>(take);
   shell.contact.largest_distance = take_piece<double>(take);
+  shell.settings.contact.time_scale = shell.contact.time_scale = take_piece<double>(take);
   shell.contact.pairs.skin = take_piece<double>(take);
   if (take_piece<std::uint64_t>(take) != shell.bodies.size()) throw std::logic_error("world frame: another scene's bodies");
   for (BodyInfo& b : shell.bodies) {

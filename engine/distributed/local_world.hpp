@@ -153,7 +153,7 @@ std::unique_ptr<WorldState> local_world_from(const WorldState& shell, LocalLayou
 
 // What a shell (WorldBuild::shell) cannot know without meshing the bodies, from the whole world: its
 // clock, the instability bound (it depends on the bodies' extent), the contact reach and skin (the
-// largest particle), and every body's particle and vertex ranges, mean edge length and horizon.
+// largest particle), the contact time scale (from the stable-step estimate), and every body's particle and vertex ranges, mean edge length and horizon.
 // World::split broadcasts it from rank 0 before every split.
 std::vector<char> pack_world_frame(const WorldState& whole);
 void take_world_frame(WorldState& shell, const std::vector<char>& message);

@@ -131,6 +131,7 @@ PYBIND11_MODULE(perifx, m) {
       .def_property_readonly("threads", &World::threads)
       .def_property_readonly("name", [](const World& w) { return w.scene().name; })
       .def("stable_time_step", &World::stable_time_step)
+      .def("contact_time_scale", &World::contact_time_scale)
       .def("field_names", &World::field_names)
       .def("field", [](py::object self, const std::string& name) {
              const World& w = self.cast<const World&>();
@@ -177,14 +178,14 @@ PYBIND11_MODULE(perifx, m) {
            })
       .def("memory_bytes", [](const World& w) { return w.memory().total_bytes; })
       .def("memory", [](const World& w) {
-             const auto m = w.memory();
+             const auto use = w.memory();
              py::dict out;
-             out["particle_bytes"] = m.particle_bytes;
-             out["bond_bytes"] = m.bond_bytes;
-             out["mesh_bytes"] = m.mesh_bytes;
-             out["contact_bytes"] = m.contact_bytes;
-             out["other_bytes"] = m.other_bytes;
-             out["total_bytes"] = m.total_bytes;
+             out["particle_bytes"] = use.particle_bytes;
+             out["bond_bytes"] = use.bond_bytes;
+             out["mesh_bytes"] = use.mesh_bytes;
+             out["contact_bytes"] = use.contact_bytes;
+             out["other_bytes"] = use.other_bytes;
+             out["total_bytes"] = use.total_bytes;
              return out;
            }, "bytes the world's arrays hold (their capacity), by kind: dict of particle_bytes, bond_bytes, "
               "mesh_bytes, contact_bytes, other_bytes, total_bytes")

@@ -210,6 +210,7 @@ class Converter {
     if (ct.contains("enabled")) s.contact.mode = ct["enabled"].get<bool>() ? Contact::Mode::on : Contact::Mode::off;
     s.contact.distance_factor = num(ct["distance_factor"]);
     s.contact.stiffness_factor = num(ct["stiffness_factor"]);
+    s.contact.time_scale = ct["time_scale"].is_string() ? 0.0 : num(ct["time_scale"]);  // "auto" → 0
     s.contact.damping_ratio = num(ct["damping_ratio"]);
     s.contact.friction = num(ct["friction"]);
     for (const Json& pj : j["projectiles"]) {

@@ -315,15 +315,21 @@ Key build_spec() {
   Key contact = object("contact", "contact",
       "Particle–particle contact: a short-range repulsion between particles that are not joined by an "
       "alive bond (different bodies, or fragments) once closer than d_c = distance_factor·(∛V_i + ∛V_j)/2. "
-      "The pair stiffness k = stiffness_factor·min(m_i, m_j)/dt² is tied to the time step so contact "
-      "stays stable at the scene's dt (k·dt²/m ≪ 1); it also damps the normal approach and applies "
-      "Coulomb friction.", {
+      "The pair stiffness is k = stiffness_factor·min(m_i, m_j)/τ², τ the contact time scale (below), so "
+      "the contact is the same at any time step up to τ and stays stable (k·dt²/m ≤ stiffness_factor); a "
+      "step longer than τ takes τ's place (k = stiffness_factor·m/dt²), and impacts then depend on the step. "
+      "It also damps the normal approach and applies Coulomb friction. The projectiles use the same spring.", {
       key("enabled", Type::boolean, "Whether contact runs.")
           .def_text("true when there are at least 2 bodies or a material can break (finite `critical_stretch` or `fracture_energy`)"),
       number("distance_factor", "Contact distance d_c as a multiple of the mean particle size ∛V.")
           .gt(0).le(3).def(0.9),
-      number("stiffness_factor", "k·dt²/min(m_i, m_j); small keeps the explicit step stable.")
+      number("stiffness_factor", "k·τ²/min(m_i, m_j); small keeps the explicit step stable.")
           .gt(0).le(0.5).def(0.05),
+      number("time_scale", "Contact time scale τ, s. \"auto\": the automatic time step before it is fitted to "
+                           "the frames (time/dt), min(80 % of the stable limit, the time the fastest prescribed "
+                           "motion takes to cross a quarter of the finest body's mean edge length or of a smaller "
+                           "projectile's radius), whatever step the scene gives; it is set at set-up from the "
+                           "scene alone (systems/README.md §8.4).").gt(0).or_auto().def("auto"),
       number("damping_ratio", "Normal damping, fraction of critical for the pair spring.").ge(0).le(1).def(0.1),
       number("friction", "Coulomb friction coefficient between particles.").ge(0).def(0),
   }).def(Json::object());

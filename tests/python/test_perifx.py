@@ -46,6 +46,18 @@ def test_a_scene_without_a_step_gets_one_at_set_up():
     assert w.dt > 1e-4  # the soft cube's hand-picked step above was well inside its limit
 
 
+def test_contact_takes_its_time_scale_from_the_scene_not_the_step():
+    # contact/time_scale "auto": 80 % of the stable limit for a body nothing moves, whatever dt is given;
+    # nothing touches without contact: 0.
+    for dt in (1e-4, 5e-5):
+        w = perifx.World(small_scene(time={"dt": dt, "duration": 0.01, "frame_rate": 200},
+                                     contact={"enabled": True}), threads=1)
+        assert w.contact_time_scale() == pytest.approx(0.8 * w.stable_time_step(), rel=1e-12)
+    assert perifx.World(small_scene(), threads=1).contact_time_scale() == 0.0
+    given = perifx.World(small_scene(contact={"enabled": True, "time_scale": 3e-4}), threads=1)
+    assert given.contact_time_scale() == 3e-4
+
+
 def test_fields_are_read_only_views_without_copies():
     w = perifx.World(str(CANTILEVER))
     names = w.field_names()
@@ -101,7 +113,7 @@ def test_memory_by_kind_adds_up_and_grows_only_where_a_run_grows():
 
 def test_surface_and_pieces():
     w = perifx.World(str(WALL))
-    w.step(60)
+    w.step(80)  # the wall is in pieces from step 70
     s = w.surface()
     assert s["vertices"].shape[1] == 3 and s["triangles"].shape[1] == 3
     assert s["crack"].shape[0] == s["triangles"].shape[0] == s["fragment"].shape[0]

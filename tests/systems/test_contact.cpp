@@ -383,3 +383,117 @@ TEST_CASE("a projectile first touches a body where its mesh surface is, at any r
     if (cell == 0.06) CHECK(reach_step < expected);       // they stick out: early
   }
 }
+
+namespace {
+
+// A steel sphere dropped at 5 m/s onto the top of a slab clamped over its bottom half: the sphere's
+// deepest reach below the slab's top face (m), the slab's give plus the contact spring's overlap.
+// contact/time_scale `tau` (0: "auto") and the step `dt` (0: "auto").
+scene::Scene sphere_on_slab(double tau, double dt) {
+  auto sc = test::box_scene(Vec3(0.16, 0.16, 0.04), 0.01, kKappa, kMu, kRho);
+  scene::BoundaryCondition clamp;  // anchor: the bottom half held
+  clamp.region.kind = scene::Region::Kind::halfspace;
+  clamp.region.point = Vec3::Zero();
+  clamp.region.normal = Vec3(0, 0, -1);
+  sc.boundary_conditions.push_back(clamp);
+  scene::Projectile pr;
+  pr.radius = 0.025;
+  pr.mass = 7800.0 * 4.0 / 3.0 * kPi * pr.radius * pr.radius * pr.radius;
+  pr.center = Vec3(0.0, 0.0, 0.02 + pr.radius + 0.001);
+  pr.velocity = Vec3(0.0, 0.0, -5.0);
+  sc.projectiles.push_back(pr);
+  sc.contact.time_scale = tau;
+  sc.time.auto_dt = dt == 0.0;
+  sc.time.dt = dt;
+  sc.time.duration = 2e-3;
+  sc.time.frame_rate = 1e4;
+  return sc;
+}
+
+double deepest_reach(const scene::Scene& sc) {
+  World world(sc);
+  const double top = 0.02, radius = sc.projectiles[0].radius;
+  double lowest = kInfinity;
+  const auto steps = static_cast<long>(std::llround(sc.time.duration / world.dt()));
+  for (long k = 0; k < steps; ++k) {
+    world.step();
+    lowest = std::min(lowest, world.state().projectiles.bodies[0].center.z() - radius);
+  }
+  return top - lowest;
+}
+
+// Two boxes meeting face to face at 2 m/s each: the deepest overlap of a pair of their particles
+// within the contact distance over the run (m; worst_penetration).
+scene::Scene boxes_meeting(double tau, double dt) {
+  auto sc = test::box_scene(Vec3(0.08, 0.08, 0.04), 0.01, kKappa, kMu, kRho);
+  sc.bodies.clear();
+  sc.bodies.push_back(box_body("below", Vec3(0.08, 0.08, 0.04), 0.01, Vec3(0, 0, -0.0205), Vec3(0, 0, 2.0)));
+  sc.bodies.push_back(box_body("above", Vec3(0.08, 0.08, 0.04), 0.01, Vec3(0, 0, 0.0205), Vec3(0, 0, -2.0)));
+  sc.contact.time_scale = tau;
+  sc.time.auto_dt = dt == 0.0;
+  sc.time.dt = dt;
+  sc.time.duration = 1e-3;
+  sc.time.frame_rate = 1e4;
+  return sc;
+}
+
+double deepest_overlap(const scene::Scene& sc) {
+  World world(sc);
+  double deepest = 0.0;
+  const auto steps = static_cast<long>(std::llround(sc.time.duration / world.dt()));
+  for (long k = 0; k < steps; ++k) {
+    world.step();
+    deepest = std::max(deepest, worst_penetration(world, 0.012));
+  }
+  return deepest;
+}
+
+}  // namespace
+
+TEST_CASE("the contact time scale is the automatic step before it is fitted to the frames, for any step") {
+  const auto given = sphere_on_slab(0.0, 1e-6), automatic = sphere_on_slab(0.0, 0.0);
+  World a(given), b(automatic);
+  const double lambda = a.state().bodies[0].mean_edge_length, radius = given.projectiles[0].radius;
+  const double expected = std::min(0.8 * a.stable_time_step(), 0.25 * std::min(lambda, radius) / 5.0);
+  MESSAGE("stable limit " << a.stable_time_step() << " s, motion rule " << 0.25 * std::min(lambda, radius) / 5.0
+                          << " s, contact time scale " << a.contact_time_scale() << " s, automatic step " << b.dt() << " s");
+  CHECK(a.contact_time_scale() == doctest::Approx(expected).epsilon(1e-12));
+  CHECK(b.contact_time_scale() == a.contact_time_scale());  // the same bits: the scene's, not the step's
+  CHECK(b.dt() <= b.contact_time_scale());                  // "auto" steps within it
+  World c(sphere_on_slab(3e-6, 1e-6));                      // given: taken as is, no estimate needed
+  CHECK(c.contact_time_scale() == 3e-6);
+  auto single = test::box_scene(Vec3(0.08, 0.08, 0.04), 0.01, kKappa, kMu, kRho);  // nothing touches
+  CHECK(World(single).contact_time_scale() == 0.0);
+}
+
+TEST_CASE("an impact does not depend on the step below the contact time scale") {
+  // Shortening the step from τ/2 to about τ/4 (frames must fall on steps) leaves the sphere's reach
+  // into the clamped slab and the deepest particle overlap of two boxes meeting at 4 m/s within 3 %
+  // (what remains is the step's own error). With the spring tied to the step (a given time scale
+  // below dt: k = factor·m/dt²), the same change stiffens it threefold: the overlap shrinks by about
+  // 1/√3, and the sphere's reach, which the slab's own give dilutes, by over 5 %.
+  const double tau = World(sphere_on_slab(0.0, 1e-6)).contact_time_scale();
+  REQUIRE(tau > 0.0);
+  auto on_grid = [](double dt) { return 1e-4 / std::ceil(1e-4 / dt); };  // frames of 0.1 ms fall on steps
+  const double half = on_grid(tau / 2), quarter = on_grid(tau / 4);
+  const double reach_half = deepest_reach(sphere_on_slab(0.0, half));
+  const double reach_quarter = deepest_reach(sphere_on_slab(0.0, quarter));
+  const double tied_half = deepest_reach(sphere_on_slab(1e-12, half));
+  const double tied_quarter = deepest_reach(sphere_on_slab(1e-12, quarter));
+  MESSAGE("sphere reach below the top face at dt " << half << " / " << quarter << " s: " << reach_half << " / "
+                                                    << reach_quarter << " m; tied to the step: " << tied_half << " / "
+                                                    << tied_quarter << " m");
+  CHECK(std::abs(reach_quarter / reach_half - 1.0) < 0.03);
+  CHECK(tied_quarter / tied_half < 0.95);
+
+  const double tau2 = World(boxes_meeting(0.0, 1e-6)).contact_time_scale();
+  const double h2 = on_grid(tau2 / 2), q2 = on_grid(tau2 / 4);
+  const double overlap_half = deepest_overlap(boxes_meeting(0.0, h2)), overlap_quarter = deepest_overlap(boxes_meeting(0.0, q2));
+  const double tied_overlap_half = deepest_overlap(boxes_meeting(1e-12, h2));
+  const double tied_overlap_quarter = deepest_overlap(boxes_meeting(1e-12, q2));
+  MESSAGE("boxes' deepest particle overlap at dt " << h2 << " / " << q2 << " s: " << overlap_half << " / "
+                                                   << overlap_quarter << " m; tied to the step: " << tied_overlap_half
+                                                   << " / " << tied_overlap_quarter << " m");
+  CHECK(std::abs(overlap_quarter / overlap_half - 1.0) < 0.03);
+  CHECK(tied_overlap_quarter / tied_overlap_half < 0.8);
+}

@@ -200,7 +200,8 @@ struct Contact {
   enum class Mode { automatic, on, off };
   Mode mode = Mode::automatic;         // automatic: on when there are ≥ 2 bodies or a breakable material
   double distance_factor = 0.9;        // d_c = factor·(∛V_i + ∛V_j)/2
-  double stiffness_factor = 0.05;      // pair stiffness k = factor·min(m_i, m_j)/dt²
+  double stiffness_factor = 0.05;      // pair stiffness k = factor·min(m_i, m_j)/max(τ, dt)²
+  double time_scale = 0.0;             // τ, s; 0: "auto", resolved at set-up (engine/setup/world_setup.cpp)
   double damping_ratio = 0.1;          // normal damping, fraction of critical
   double friction = 0.0;               // Coulomb coefficient
 };

@@ -164,6 +164,10 @@ class World {
   // time step at or below it is stable, and checking it costs a fraction of the estimate above, which
   // needs some 20–30 applications of the force (tens of seconds at 1e6 particles).
   double stable_time_step_bound() const;
+  // The contact time scale τ, s, set at set-up (the scene's contact/time_scale; "auto": the automatic
+  // step before it is fitted to the frames): the contact and projectile springs are
+  // stiffness_factor·m/max(τ, dt)². 0 when nothing in the world touches (no contact, no projectile).
+  double contact_time_scale() const;
   MemoryUse memory() const;
   // How this world would split over `ranks` ranks now (throws std::invalid_argument unless
   // 1 ≤ ranks ≤ particles). A plan: the world itself keeps running in one process.

@@ -157,6 +157,23 @@ TEST_CASE("cli: a scene without dt, or --dt auto, runs at the step picked at set
   fs::remove_all(dir);
 }
 
+TEST_CASE("cli: info prints the contact time scale, and warns when the step is longer") {
+  const fs::path dir = temp_dir("contact_time_scale");
+  std::string text = kScene;
+  text.replace(text.rfind("\n}"), 2, ",\n  \"contact\": { \"enabled\": true }\n}");
+  const auto automatic = run_cli("info " + write(dir, "auto.json", text).string());
+  REQUIRE(automatic.code == 0);
+  CHECK(automatic.output.find("contact          time scale ") != std::string::npos);
+  CHECK(automatic.output.find("(auto; ") != std::string::npos);
+  CHECK(automatic.output.find("longer than the contact time scale") == std::string::npos);  // 1e-4 s is within it
+  text.replace(text.find("\"enabled\": true"), 15, "\"enabled\": true, \"time_scale\": 2e-5");
+  const auto given = run_cli("info " + write(dir, "given.json", text).string());
+  REQUIRE(given.code == 0);  // a warning, not an error: the step is stable
+  CHECK(given.output.find("time scale 2e-05 s (given; ") != std::string::npos);
+  CHECK(given.output.find("warning: time/dt 0.0001 s is longer than the contact time scale 2e-05 s") != std::string::npos);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("cli: a time step above the stable limit is refused with the limit in the message") {
   const fs::path dir = temp_dir("unstable");
   std::string text = kScene;

@@ -38,13 +38,13 @@ TEST_CASE("checkpoint: a restored world has every array's bytes and steps on bit
   auto sc = scene::load_scene_file(kWall);
   sc.threads = 2;
   World a(sc);
-  a.step(60);  // the ball is through: broken bonds, split mesh, contact pairs
+  a.step(80);  // the ball is through (pieces from step 70): broken bonds, split mesh, contact pairs
   const fs::path file = fs::temp_directory_path() / ("perifx_checkpoint_" + std::to_string(::getpid()) + ".bin");
   a.save_checkpoint(file, "note");
   sc.threads = 1;
   World b(sc);
   CHECK(b.load_checkpoint(file) == "note");
-  CHECK(b.step_count() == 60);
+  CHECK(b.step_count() == 80);
   CHECK(b.time() == a.time());
   const auto bytes_a = array_bytes(a.state()), bytes_b = array_bytes(b.state());
   for (const auto& [name, bytes] : bytes_a) {
@@ -106,7 +106,7 @@ TEST_CASE("checkpoint: a whole world written without its contact buffers resumes
   auto sc = scene::load_scene_file(kWall);
   sc.threads = 2;
   World a(sc);
-  a.step(60);  // broken bonds, pieces and a built pair list
+  a.step(80);  // broken bonds, pieces (from step 70) and a built pair list
   REQUIRE(a.state().contact.enabled);
   REQUIRE(a.state().contact.pairs.valid);
   const std::string stem = "perifx_checkpoint_released_" + std::to_string(::getpid());
