@@ -386,9 +386,29 @@ TEST_CASE("a projectile first touches a body where its mesh surface is, at any r
 
 namespace {
 
-// A steel sphere dropped at 5 m/s onto the top of a slab clamped over its bottom half: the sphere's
-// deepest reach below the slab's top face (m), the slab's give plus the contact spring's overlap.
-// contact/time_scale `tau` (0: "auto") and the step `dt` (0: "auto").
+// contact/time_scale `tau` (0: "auto"), the step `dt` (0: "auto"), frames every 0.1 ms.
+void set_timing(scene::Scene& sc, double tau, double dt, double duration) {
+  sc.contact.time_scale = tau;
+  sc.time.auto_dt = dt == 0.0;
+  sc.time.dt = dt;
+  sc.time.duration = duration;
+  sc.time.frame_rate = 1e4;
+}
+
+// The largest value of `measure(world)` after each step of the scene's duration.
+template <class Measure>
+double largest_over_run(const scene::Scene& sc, Measure measure) {
+  World world(sc);
+  double largest = -kInfinity;
+  const auto steps = static_cast<long>(std::llround(sc.time.duration / world.dt()));
+  for (long k = 0; k < steps; ++k) {
+    world.step();
+    largest = std::max(largest, measure(world));
+  }
+  return largest;
+}
+
+// A steel sphere dropped at 5 m/s onto the top of a slab clamped over its bottom half.
 scene::Scene sphere_on_slab(double tau, double dt) {
   auto sc = test::box_scene(Vec3(0.16, 0.16, 0.04), 0.01, kKappa, kMu, kRho);
   scene::BoundaryCondition clamp;  // anchor: the bottom half held
@@ -402,50 +422,29 @@ scene::Scene sphere_on_slab(double tau, double dt) {
   pr.center = Vec3(0.0, 0.0, 0.02 + pr.radius + 0.001);
   pr.velocity = Vec3(0.0, 0.0, -5.0);
   sc.projectiles.push_back(pr);
-  sc.contact.time_scale = tau;
-  sc.time.auto_dt = dt == 0.0;
-  sc.time.dt = dt;
-  sc.time.duration = 2e-3;
-  sc.time.frame_rate = 1e4;
+  set_timing(sc, tau, dt, 2e-3);
   return sc;
 }
 
+// The sphere's deepest reach below the slab's top face (m): the slab's give plus the spring's overlap.
 double deepest_reach(const scene::Scene& sc) {
-  World world(sc);
   const double top = 0.02, radius = sc.projectiles[0].radius;
-  double lowest = kInfinity;
-  const auto steps = static_cast<long>(std::llround(sc.time.duration / world.dt()));
-  for (long k = 0; k < steps; ++k) {
-    world.step();
-    lowest = std::min(lowest, world.state().projectiles.bodies[0].center.z() - radius);
-  }
-  return top - lowest;
+  return largest_over_run(sc, [&](const World& w) { return top - (w.state().projectiles.bodies[0].center.z() - radius); });
 }
 
-// Two boxes meeting face to face at 2 m/s each: the deepest overlap of a pair of their particles
-// within the contact distance over the run (m; worst_penetration).
+// Two boxes meeting face to face at 2 m/s each.
 scene::Scene boxes_meeting(double tau, double dt) {
   auto sc = test::box_scene(Vec3(0.08, 0.08, 0.04), 0.01, kKappa, kMu, kRho);
   sc.bodies.clear();
   sc.bodies.push_back(box_body("below", Vec3(0.08, 0.08, 0.04), 0.01, Vec3(0, 0, -0.0205), Vec3(0, 0, 2.0)));
   sc.bodies.push_back(box_body("above", Vec3(0.08, 0.08, 0.04), 0.01, Vec3(0, 0, 0.0205), Vec3(0, 0, -2.0)));
-  sc.contact.time_scale = tau;
-  sc.time.auto_dt = dt == 0.0;
-  sc.time.dt = dt;
-  sc.time.duration = 1e-3;
-  sc.time.frame_rate = 1e4;
+  set_timing(sc, tau, dt, 1e-3);
   return sc;
 }
 
+// The deepest overlap of a pair of their particles within the contact distance over the run (m).
 double deepest_overlap(const scene::Scene& sc) {
-  World world(sc);
-  double deepest = 0.0;
-  const auto steps = static_cast<long>(std::llround(sc.time.duration / world.dt()));
-  for (long k = 0; k < steps; ++k) {
-    world.step();
-    deepest = std::max(deepest, worst_penetration(world, 0.012));
-  }
-  return deepest;
+  return largest_over_run(sc, [](const World& w) { return worst_penetration(w, 0.012); });
 }
 
 }  // namespace
