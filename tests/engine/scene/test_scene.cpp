@@ -408,6 +408,17 @@ TEST_CASE("scene: the time step is \"auto\" when not given, and only a number or
   CHECK_HAS(error_in(j), "cases.json: /time/frame_rate: no frame in the duration");
 }
 
+TEST_CASE("scene: the contact time scale is \"auto\" (0 until set-up) or seconds > 0") {
+  Json j = minimal();
+  CHECK(load_scene_text(j.dump(), "cases.json").contact.time_scale == 0.0);
+  j["contact"] = Json::parse(R"({"time_scale": "auto"})");
+  CHECK(load_scene_text(j.dump(), "cases.json").contact.time_scale == 0.0);
+  j["contact"]["time_scale"] = 2.5e-5;
+  CHECK(load_scene_text(j.dump(), "cases.json").contact.time_scale == 2.5e-5);
+  j["contact"]["time_scale"] = 0;
+  CHECK(error_in(j) == "cases.json: /contact/time_scale: out of range (got 0; expected a number > 0 or \"auto\")");
+}
+
 TEST_CASE("scene: missing keys") {
   Json j = minimal();
   j["bodies"][0]["geometry"].erase("size");
