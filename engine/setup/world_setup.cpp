@@ -122,15 +122,13 @@ double motion_time_step(const scene::Scene& scene, const WorldState& w, double e
   return speed > 0.0 && finest < kInfinity ? kMotionPerStep * finest / speed : kInfinity;
 }
 
-std::string g3(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", x);
-  return buf;
-}
-
 double automatic_time_step(const scene::Scene& scene, const WorldState& w, double extent, double stable) {
   const std::string file = scene.source.string();
-  const auto g = g3;
+  auto g = [](double x) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", x);
+    return std::string(buf);
+  };
   if (!(stable > 0.0) || !std::isfinite(stable))
     throw scene::SceneError(file, "/time/dt",
                             "\"auto\" found no stable step for these bodies (got a stable limit of " +
