@@ -501,8 +501,9 @@ std::string World::load_checkpoint(const std::filesystem::path& file) {
   if (impl_->shell && !impl_->runtime)
     throw std::logic_error("World::load_checkpoint: a shell loads a checkpoint only once distributed");
   const io::CheckpointHeader h = io::read_checkpoint_header(file);
-  const std::string why = io::checkpoint_mismatch(h, impl_->scene.text, dt(), solver_text(impl_->scene.solver),
-                                                  particle_count(), bond_count());
+  const std::string why =
+      io::checkpoint_mismatch(h, impl_->scene.text, dt(), impl_->state->settings.contact.time_scale,
+                              solver_text(impl_->scene.solver), particle_count(), bond_count());
   if (!why.empty())
     throw scene::SceneError(impl_->scene.source.string(), "", "cannot resume from checkpoint '" + file.string() + "': " + why);
   impl_->stable_dt = 0.0;

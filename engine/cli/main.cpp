@@ -60,7 +60,7 @@ struct UsageError {
 struct Args {
   std::string command, scene;
   std::string second;  // compare: RUN_B
-  std::optional<std::string> out, frames, threads, solver, dt, progress, horizon;
+  std::optional<std::string> out, frames, threads, solver, dt, contact_time_scale, progress, horizon;
   std::optional<std::string> ranks;  // info --ranks
   bool quiet = false, overwrite = false, resume = false, force = false;
   bool render = false;  // run --render
@@ -134,6 +134,12 @@ perifx::scene::Scene load(const Args& a) {
   const std::optional<double> dt =
       a.dt && !auto_dt ? std::optional<double>(parse_positive("--dt", *a.dt, "a positive number of seconds or auto"))
                        : std::nullopt;
+  const bool auto_contact = a.contact_time_scale && *a.contact_time_scale == "auto";
+  const std::optional<double> contact_time_scale =
+      a.contact_time_scale && !auto_contact
+          ? std::optional<double>(parse_positive("--contact-time-scale", *a.contact_time_scale,
+                                                 "a positive number of seconds or auto"))
+          : std::nullopt;
   if (a.solver && *a.solver != "peridynamics" && *a.solver != "fem_linear" && *a.solver != "fem_corotated")
     throw UsageError{"--solver expects peridynamics, fem_linear or fem_corotated, got '" + *a.solver + "'"};
   auto sc = perifx::scene::load_scene_file(a.scene);
@@ -145,6 +151,8 @@ perifx::scene::Scene load(const Args& a) {
                 : *a.solver == "fem_corotated" ? Solver::fem_corotated : Solver::peridynamics;
   }
   if (auto_dt) sc.time.auto_dt = true, sc.time.dt = 0.0;  // picked at set-up
+  if (auto_contact) sc.contact.time_scale = 0.0;  // resolved at set-up
+  if (contact_time_scale) sc.contact.time_scale = *contact_time_scale;
   if (dt) {
     sc.time.dt = *dt;
     sc.time.auto_dt = false;
@@ -757,6 +765,9 @@ int cli_main(int argc, char** argv, const perifx::distributed::MpiSession& mpi) 
     text_option(sub, "--threads", a.threads, "worker threads (N >= 1)");
     text_option(sub, "--solver", a.solver, "peridynamics|fem_linear|fem_corotated (overrides the scene)");
     text_option(sub, "--dt", a.dt, "time step in seconds, or auto (overrides the scene)");
+    text_option(sub, "--contact-time-scale", a.contact_time_scale,
+                "contact time scale in seconds, or auto (overrides the scene's contact/time_scale; a preview given "
+                "its final's keeps the final's contact springs)");
   };
   CLI::App* run = app.add_subcommand("run", "simulate and write frames (VTU/VTP + PVD for ParaView, OBJ/PLY for Houdini, an OBJ + PC2 point cache for Blender, glTF for game engines)");
   scene_options(run);

@@ -18,7 +18,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'P', 'E', 'R', 'I', 'F', 'X', 'C', 'K'};
-constexpr std::uint32_t kVersion = 23;  // 2: embedded.held_deformation, embedded.held_tracked;
+constexpr std::uint32_t kVersion = 24;  // 2: embedded.held_deformation, embedded.held_tracked;
                                        // 3: contact moved-particle updates (per-particle search positions);
                                        // 4: no per-bond |ξ|, ω, mirror index; e^p as float (issue 16);
                                        // 5: model.anisotropy_metric (GᵀG per particle);
@@ -40,6 +40,7 @@ constexpr std::uint32_t kVersion = 23;  // 2: embedded.held_deformation, embedde
                                        // 21: contact.pairs.length (rows with spare capacity)
                                        // 22: contact.search_grid, contact.pairs.displaced(_list)
                                        // 23: contact.displaced_grid
+                                       // 24: the header's contact_time_scale (the contact law changed)
 
 // Not saved: worker-slot scratch (sized by the thread count, so a resume on another thread count keeps
 // its own) and the projectiles' per-block contact lists (refilled by every step before any reads).
@@ -142,7 +143,7 @@ void put_text(std::ostream& out, const std::string& s) {
 
 nlohmann::json header_json(const CheckpointHeader& h) {
   return {{"scene_hash", h.scene_hash}, {"scene_text", h.scene_text}, {"solver", h.solver}, {"dt", h.dt},
-          {"step", h.step}, {"particles", h.particles}, {"bonds", h.bonds}, {"note", h.note}};
+          {"contact_time_scale", h.contact_time_scale}, {"step", h.step}, {"particles", h.particles}, {"bonds", h.bonds}, {"note", h.note}};
 }
 
 CheckpointHeader read_header(Reader& in) {
@@ -158,6 +159,7 @@ CheckpointHeader read_header(Reader& in) {
     h.scene_text = j.at("scene_text").get<std::string>();
     h.solver = j.at("solver").get<std::string>();
     h.dt = j.at("dt").get<double>();
+    h.contact_time_scale = j.at("contact_time_scale").get<double>();
     h.step = j.at("step").get<std::uint64_t>();
     h.particles = j.at("particles").get<std::uint64_t>();
     h.bonds = j.at("bonds").get<std::uint64_t>();
@@ -181,6 +183,7 @@ std::string scene_hash(const std::string& text) {
 void write_checkpoint(const fs::path& file, const WorldState& w, CheckpointHeader h) {
   h.step = w.clock.step;
   h.dt = w.clock.dt;
+  h.contact_time_scale = w.settings.contact.time_scale;
   h.particles = w.particles.count();
   h.bonds = w.bonds.count();
   write_atomic(file, [&](std::ostream& out) {
@@ -209,7 +212,8 @@ CheckpointHeader read_checkpoint_header(const fs::path& file) {
 }
 
 std::string checkpoint_mismatch(const CheckpointHeader& h, const std::string& scene_text, double dt,
-                                const std::string& solver, std::uint64_t particles, std::uint64_t bonds) {
+                                double contact_time_scale, const std::string& solver, std::uint64_t particles,
+                                std::uint64_t bonds) {
   std::string why;
   auto add = [&](const std::string& s) { why += (why.empty() ? "" : "; ") + s; };
   if (h.scene_hash != scene_hash(scene_text)) {
@@ -234,6 +238,12 @@ std::string checkpoint_mismatch(const CheckpointHeader& h, const std::string& sc
   if (h.dt != dt) {
     char buf[96];
     std::snprintf(buf, sizeof buf, "time step %.17g s, checkpoint has %.17g s", dt, h.dt);
+    add(buf);
+  }
+  if (h.contact_time_scale != contact_time_scale) {
+    char buf[112];
+    std::snprintf(buf, sizeof buf, "contact time scale %.17g s, checkpoint has %.17g s", contact_time_scale,
+                  h.contact_time_scale);
     add(buf);
   }
   if (h.solver != solver) add("solver " + solver + ", checkpoint has " + h.solver);

@@ -171,6 +171,14 @@ TEST_CASE("cli: info prints the contact time scale, and warns when the step is l
   REQUIRE(given.code == 0);  // a warning, not an error: the step is stable
   CHECK(given.output.find("time scale 2e-05 s (given; ") != std::string::npos);
   CHECK(given.output.find("warning: time/dt 0.0001 s is longer than the contact time scale 2e-05 s") != std::string::npos);
+  // The same from the command line, over the scene's "auto"; a bad value is a usage error.
+  const fs::path automatic_scene = dir / "auto.json";
+  const auto option = run_cli("info " + automatic_scene.string() + " --contact-time-scale 2e-5");
+  REQUIRE(option.code == 0);
+  CHECK(option.output.find("time scale 2e-05 s (given; ") != std::string::npos);
+  const auto bad = run_cli("info " + automatic_scene.string() + " --contact-time-scale soon");
+  CHECK(bad.code == 1);
+  CHECK(bad.output.find("--contact-time-scale expects a positive number of seconds or auto, got 'soon'") != std::string::npos);
   fs::remove_all(dir);
 }
 

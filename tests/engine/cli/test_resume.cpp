@@ -147,6 +147,10 @@ TEST_CASE("run --resume refuses a changed scene and says which keys changed") {
   const auto dt = run_cli(run_args(out, "--resume --dt 5e-5"));
   CHECK(dt.code == 2);
   CHECK(dt.output.find("time step") != std::string::npos);
+  // The contact time scale can be overridden on the command line, so it is compared apart from the text.
+  const auto tau = run_cli(run_args(out, "--resume --contact-time-scale 1e-4"));
+  CHECK(tau.code == 2);
+  CHECK(tau.output.find("contact time scale 0.0001 s, checkpoint has") != std::string::npos);
   fs::remove_all(out);
   fs::remove(changed);
 }
