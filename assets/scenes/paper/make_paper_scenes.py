@@ -106,9 +106,9 @@ def scene(name, variant, description, dt, duration, frame_rate, materials, bodie
     # is the scene's step: the paper's runs set their contact springs with their step, and each pair's
     # preview and full scene run at Table 1's step (fig03 and fig14's full at a smaller one), so every
     # pair measured in assets/report/accuracy.md keeps its contact. The "auto" time scale (80 % of the
-    # stable limit) is 9-10x longer than the glass scenes' 1e-6 s, and so a far softer spring: the
-    # fig15 preview then first broke at 1.81 ms against its full scene's 1.37 ms (1.06 / 1.09 ms at the
-    # step; systems/README.md §8.4).
+    # stable limit) is 9-11x longer than the glass previews' 1e-6 s (2.3x in fig15's full scene), and
+    # so a far softer spring: the fig15 preview then first broke at 1.81 ms against its full scene's
+    # 1.37 ms (1.06 / 1.09 ms at the step; systems/README.md §8.4).
     breaks = any(m.get("critical_stretch", INF) != INF or "fracture_energy" in m for m in materials.values())
     if "projectiles" in s or len(bodies) >= 2 or breaks:
         s.setdefault("contact", {})["time_scale"] = dt
