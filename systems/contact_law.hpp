@@ -15,7 +15,7 @@
 // gives the same bits the separate copies gave.
 // The stiffness is k = stiffness_factor·m/τ_k², τ_k = max(τ, dt) (contact_stiffness_per_mass below): τ
 // the scene's contact time scale, set once at set-up (engine/setup/world_setup.cpp,
-// contact_time_scale), so the contact does not stiffen or soften when only the step changes;
+// allowed_time_step), so the contact does not stiffen or soften when only the step changes;
 // the step takes over only where it is longer than τ, which keeps one spring's (ω dt)² ≤ 2·factor.
 // Inline: it runs inside the contact loops.
 #pragma once

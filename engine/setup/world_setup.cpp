@@ -112,31 +112,40 @@ double max_speed(const scene::Scene& scene, double extent, double dt) {
 constexpr double kStableFraction = 0.8;
 constexpr double kMotionPerStep = 0.25;
 
-// The step in which the fastest prescribed motion covers kMotionPerStep of the finest length (∞ without
-// prescribed motion).
-double motion_time_step(const scene::Scene& scene, const WorldState& w, double extent) {
+// The step the two rules above allow, before it is fitted to the frames: min(80 % of `stable`, the
+// step in which the fastest prescribed motion covers kMotionPerStep of the finest length). 0 when the
+// stable limit could not be estimated.
+// It is also the contact time scale τ of contact/time_scale "auto" (systems/contact_law.hpp: the
+// contact and projectile springs are k = stiffness_factor·m/max(τ, dt)²), for whatever step the scene
+// gives. So the contact is a property of the scene, not of its step: the same for a given step and for
+// "auto" (whose step is at most τ), and unchanged when a step is halved. 80 % of the limit ties it to
+// the material (k ∝ m/dt_max², the stiffness of a bond of the body); the motion term keeps a fast
+// projectile's penetration, ≈ v τ/√stiffness_factor, within about a cell or its radius. Speed that
+// gravity builds up during the run is not counted.
+double allowed_time_step(const scene::Scene& scene, const WorldState& w, double extent, double stable) {
+  if (!(stable > 0.0) || !std::isfinite(stable)) return 0.0;
   double finest = kInfinity;  // λ of the finest body, or the smallest projectile's radius
   for (const auto& b : w.bodies) finest = std::min(finest, b.mean_edge_length);
   for (const auto& pr : scene.projectiles) finest = std::min(finest, pr.radius);
   const double speed = prescribed_speed(scene, extent, 0.0);
-  return speed > 0.0 && finest < kInfinity ? kMotionPerStep * finest / speed : kInfinity;
+  const double by_motion = speed > 0.0 && finest < kInfinity ? kMotionPerStep * finest / speed : kInfinity;
+  return std::min(kStableFraction * stable, by_motion);
 }
 
-double automatic_time_step(const scene::Scene& scene, const WorldState& w, double extent, double stable) {
+// `allowed` (allowed_time_step) fitted to the frame interval.
+double automatic_time_step(const scene::Scene& scene, double extent, double stable, double allowed) {
   const std::string file = scene.source.string();
   auto g = [](double x) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "%.3g", x);
     return std::string(buf);
   };
-  if (!(stable > 0.0) || !std::isfinite(stable))
+  if (!(allowed > 0.0))
     throw scene::SceneError(file, "/time/dt",
                             "\"auto\" found no stable step for these bodies (got a stable limit of " +
                                 g(stable) + " s; expected bodies with bonds or tets; give dt in seconds)");
   const double interval = 1.0 / scene.time.frame_rate;
-  const double speed = prescribed_speed(scene, extent, 0.0);
-  const double by_motion = motion_time_step(scene, w, extent);
-  const double steps_per_frame = std::ceil(interval / std::min(kStableFraction * stable, by_motion));
+  const double steps_per_frame = std::ceil(interval / allowed);
   scene::Scene resolved = scene;
   resolved.time.dt = interval / steps_per_frame;
   try {
@@ -144,23 +153,10 @@ double automatic_time_step(const scene::Scene& scene, const WorldState& w, doubl
   } catch (const scene::SceneError& e) {
     throw scene::SceneError(file, "/time/dt", std::string("\"auto\" picked ") + g(resolved.time.dt) +
                                                   " s (the stable limit is " + g(stable) + " s, the fastest prescribed motion " +
-                                                  g(speed) + " m/s), which the time settings refuse: " + e.message());
+                                                  g(prescribed_speed(scene, extent, 0.0)) +
+                                                  " m/s), which the time settings refuse: " + e.message());
   }
   return resolved.time.dt;
-}
-
-// The contact time scale τ of contact/time_scale "auto" (systems/contact_law.hpp: the contact and
-// projectile springs are k = stiffness_factor·m/max(τ, dt)²): the automatic step before it is fitted to
-// the frames, min(80 % of the stable limit, motion_time_step), for whatever step the scene gives. So the
-// contact is a property of the scene, not of its step: the same for a given step and for "auto" (whose
-// step is at most τ), and unchanged when a step is halved. 80 % of the limit ties it to the material
-// (k ∝ m/dt_max², the stiffness of a bond of the body); the motion term keeps a fast projectile's
-// penetration, ≈ v τ/√stiffness_factor, within about a cell or its radius. Speed that gravity builds
-// up during the run is not counted (as for the automatic step). 0 (the step's own) when the stable
-// limit could not be estimated.
-double contact_time_scale(const scene::Scene& scene, const WorldState& w, double extent, double stable) {
-  if (!(stable > 0.0) || !std::isfinite(stable)) return 0.0;
-  return std::min(kStableFraction * stable, motion_time_step(scene, w, extent));
 }
 
 }  // namespace
@@ -259,8 +255,9 @@ std::unique_ptr<WorldState> build_world_state(const scene::Scene& scene, Schedul
         stable = estimate_stable_time_step(w);
       } catch (const std::runtime_error&) {
       }
-      if (scene.time.auto_dt) w.clock.dt = automatic_time_step(scene, w, extent, stable);
-      if (auto_contact) w.settings.contact.time_scale = contact_time_scale(scene, w, extent, stable);
+      const double allowed = allowed_time_step(scene, w, extent, stable);  // also the auto contact τ
+      if (scene.time.auto_dt) w.clock.dt = automatic_time_step(scene, extent, stable, allowed);
+      if (auto_contact) w.settings.contact.time_scale = allowed;
       if (stable_time_step) *stable_time_step = stable;
       phase(scene.time.auto_dt ? "stable time step (dt \"auto\")" : "stable time step (contact time scale)");
     }
